@@ -1,0 +1,28 @@
+// Object table: what each entity is made of. Cold data: read when building pools, measuring and
+// writing output, never inside a sweep.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "components/simplicial_complex.h"
+#include "nucleon/world.h"
+
+namespace nucleon {
+
+struct ObjectRecord {
+  std::string name;
+  ObjectKind kind = ObjectKind::Particles;
+  std::uint32_t generation = 1;
+  Index firstParticle = 0;  // the object's particles are [firstParticle, firstParticle + count)
+  Index particleCount = 0;
+  Material material;
+  SimplicialComplex complex;                   // local vertex indices
+  std::vector<std::array<Index, 3>> surface;   // oriented surface triangles, local indices
+  bool closed = false;                         // the surface bounds a volume
+  double restVolume = 0;                       // enclosed volume in the rest shape
+  std::array<Index, 2> stretchRange = {0, 0};  // its constraints in StretchConstraints
+};
+
+}  // namespace nucleon

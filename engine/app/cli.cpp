@@ -1,0 +1,295 @@
+#include "engine/app/cli.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <optional>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "nucleon/mesh_io.h"
+#include "nucleon/render.h"
+#include "nucleon/scene.h"
+
+namespace nucleon {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+// Thrown for a command line or input that cannot be run; the message is the whole error line.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+const char* kUsage =
+    "usage: nucleon run SCENE.json [--frames N] [--substeps S] [--threads T]\n"
+    "                              [--solver gauss-seidel|jacobi|colored-gs|multigrid]\n"
+    "                              [--iterations K] [--out DIR] [--stats FILE.json]\n"
+    "                              [--render FILE.png] [--quiet]\n"
+    "       nucleon scenes\n"
+    "       nucleon --help | nucleon CMD --help\n";
+
+const char* kRunHelp =
+    "nucleon run SCENE.json [options]: simulate a scene and report on it.\n"
+    "  --frames N        frames to simulate (each is one step of 1/fps seconds)\n"
+    "  --substeps S      substeps per step\n"
+    "  --threads T       worker threads (0 = all cores)\n"
+    "  --solver NAME     gauss-seidel | jacobi | colored-gs | multigrid\n"
+    "  --iterations K    constraint sweeps per substep\n"
+    "  --out DIR         write one OBJ per object per frame into DIR\n"
+    "  --stats FILE      write run statistics as JSON\n"
+    "  --render FILE     write a PNG picture of the last frame\n"
+    "  --quiet           no progress output\n"
+    "Flags override the scene file, which overrides the defaults. Bad input: exit code 2.\n";
+
+int parseInt(const std::string& flag, const std::string& value, int lo, int hi) {
+  std::size_t used = 0;
+  long long x = 0;
+  try {
+    x = std::stoll(value, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != value.size() || value.empty() || x < lo || x > hi)
+    throw UsageError(flag + " expects an integer in [" + std::to_string(lo) + ", " +
+                     std::to_string(hi) + "], got '" + value + "'");
+  return static_cast<int>(x);
+}
+
+struct RunOptions {
+  std::string scene;
+  std::optional<int> frames, substeps, threads, iterations;
+  std::optional<std::string> solver;
+  std::string outDir, statsFile, renderFile;
+  bool quiet = false;
+};
+
+RunOptions parseRun(const std::vector<std::string>& args) {
+  RunOptions o;
+  for (std::size_t i = 1; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    auto value = [&]() -> const std::string& {
+      if (i + 1 >= args.size()) throw UsageError(a + " needs a value");
+      return args[++i];
+    };
+    if (a == "--frames") o.frames = parseInt(a, value(), 1, 1000000);
+    else if (a == "--substeps") o.substeps = parseInt(a, value(), 1, 10000);
+    else if (a == "--threads") o.threads = parseInt(a, value(), 0, 4096);
+    else if (a == "--iterations") o.iterations = parseInt(a, value(), 0, 100000);
+    else if (a == "--solver") o.solver = value();
+    else if (a == "--out") o.outDir = value();
+    else if (a == "--stats") o.statsFile = value();
+    else if (a == "--render") o.renderFile = value();
+    else if (a == "--quiet") o.quiet = true;
+    else if (!a.empty() && a[0] == '-') throw UsageError("unknown option '" + a + "'");
+    else if (o.scene.empty()) o.scene = a;
+    else throw UsageError("unexpected argument '" + a + "'");
+  }
+  if (o.scene.empty()) throw UsageError("run needs a scene file");
+  return o;
+}
+
+// An output file's folder must exist before the run, so that a bad path fails up front.
+void checkWritable(const std::string& file, const char* flag) {
+  if (file.empty()) return;
+  const fs::path parent = fs::path(file).parent_path();
+  if (!parent.empty() && !fs::is_directory(parent))
+    throw UsageError(std::string(flag) + ": folder '" + parent.string() + "' does not exist");
+}
+
+std::string hex16(std::uint64_t h) {
+  std::ostringstream s;
+  s << std::hex << std::setw(16) << std::setfill('0') << h;
+  return s.str();
+}
+
+// Progress on stderr: a redrawn bar on a terminal, a plain line per second otherwise.
+class Progress {
+ public:
+  Progress(std::ostream& err, int total, bool quiet)
+      : err_(err), total_(total), quiet_(quiet), terminal_(isatty(STDERR_FILENO) && &err == &std::cerr),
+        last_(Clock::now()) {}
+  void update(int done) {
+    if (quiet_) return;
+    const auto now = Clock::now();
+    if (terminal_) {
+      const int width = 40, filled = width * done / total_;
+      err_ << '\r' << '[' << std::string(filled, '#') << std::string(width - filled, '.') << "] "
+           << done << '/' << total_ << std::flush;
+      if (done == total_) err_ << '\n';
+    } else if (now - last_ >= std::chrono::seconds(1) || done == total_) {
+      err_ << "frame " << done << '/' << total_ << '\n';
+      last_ = now;
+    }
+  }
+
+ private:
+  std::ostream& err_;
+  int total_;
+  bool quiet_, terminal_;
+  Clock::time_point last_;
+};
+
+int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const RunOptions o = parseRun(args);
+  Scene scene;
+  try {
+    scene = loadScene(o.scene);
+  } catch (const SceneError& e) {
+    throw UsageError(e.what());
+  }
+  if (o.frames) scene.frames = *o.frames;
+  if (o.substeps) scene.solver.substeps = *o.substeps;
+  if (o.threads) scene.threads = *o.threads;
+  if (o.iterations) scene.solver.iterations = *o.iterations;
+  if (o.solver && !parseSolverKind(*o.solver, scene.solver.kind))
+    throw UsageError("--solver: unknown solver '" + *o.solver + "'");
+  checkWritable(o.statsFile, "--stats");
+  checkWritable(o.renderFile, "--render");
+  if (!o.outDir.empty() && fs::exists(o.outDir) && !fs::is_directory(o.outDir))
+    throw UsageError("--out: '" + o.outDir + "' exists and is not a folder");
+  World world;
+  try {
+    world = buildWorld(scene);
+  } catch (const SceneError& e) {
+    throw UsageError(e.what());
+  }
+
+  // Input is valid: from here on outputs are written.
+  if (!o.outDir.empty()) fs::create_directories(o.outDir);
+  const double dt = 1.0 / scene.fps;
+  nlohmann::json perFrame = nlohmann::json::array(), energy = nlohmann::json::array();
+  double stepSeconds = 0;
+  Progress progress(err, scene.frames, o.quiet);
+  const auto wallStart = Clock::now();
+  for (int frame = 1; frame <= scene.frames; ++frame) {
+    const auto start = Clock::now();
+    world.step(dt);
+    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    stepSeconds += seconds;
+    const Measures m = world.measure();
+    energy.push_back(m.kineticEnergy + m.potentialEnergy);
+    perFrame.push_back({{"frame", frame},
+                        {"ms", seconds * 1e3},
+                        {"max_strain", m.maxStrain},
+                        {"intersections", nullptr},
+                        {"contacts", 0}});
+    if (!o.outDir.empty())
+      for (std::size_t i = 0; i < world.objectCount(); ++i) {
+        const ObjectId id = world.objectAt(i);
+        std::ostringstream name;
+        name << world.name(id) << '_' << std::setw(4) << std::setfill('0') << frame << ".obj";
+        writeObj((fs::path(o.outDir) / name.str()).string(), world.positions(id),
+                 world.surfaceTriangles(id), world.curveEdges(id));
+      }
+    progress.update(frame);
+  }
+  const double wall = std::chrono::duration<double>(Clock::now() - wallStart).count();
+  const Measures m = world.measure();
+  const double msPerStep = stepSeconds * 1e3 / scene.frames;
+
+  nlohmann::json constraints = {{"stretch", world.constraintCount("stretch")}};
+  nlohmann::json stats = {
+      {"scene", scene.name},
+      {"frames", scene.frames},
+      {"steps", scene.frames},
+      {"substeps", scene.solver.substeps},
+      {"iterations", scene.solver.iterations},
+      {"threads", world.threads()},
+      {"solver", toString(scene.solver.kind)},
+      {"particles", world.particleCount()},
+      {"constraints", constraints},
+      {"wall_s", wall},
+      {"ms_per_step", msPerStep},
+      {"max_strain", m.maxStrain},
+      {"mean_strain", m.meanStrain},
+      {"intersections", nullptr},
+      {"nan_count", m.nanCount},
+      {"min_height", m.minHeight},
+      {"volume_ratio", m.volumeRatio >= 0 ? nlohmann::json(m.volumeRatio) : nlohmann::json()},
+      {"energy", energy},
+      {"state_hash", hex16(world.stateHash())},
+      {"per_frame", perFrame}};
+  if (!o.statsFile.empty()) {
+    std::ofstream file(o.statsFile);
+    file << stats.dump(2) << '\n';
+    if (!file) throw std::runtime_error(o.statsFile + ": cannot write");
+  }
+  if (!o.renderFile.empty()) renderPng(world, o.renderFile);
+
+  out << scene.name << ": " << scene.frames << " frames, " << world.particleCount()
+      << " particles, " << world.constraintCount("stretch") << " stretch constraints, "
+      << toString(scene.solver.kind) << " x" << scene.solver.iterations << ", "
+      << world.threads() << " threads\n"
+      << std::setprecision(4) << "  " << msPerStep << " ms/step, max strain " << m.maxStrain
+      << ", mean strain " << m.meanStrain << ", min height " << m.minHeight << ", NaN "
+      << m.nanCount << ", state " << hex16(world.stateHash()) << '\n';
+  if (!o.renderFile.empty()) out << "  picture: " << o.renderFile << '\n';
+  if (!o.statsFile.empty()) out << "  stats: " << o.statsFile << '\n';
+  if (!o.outDir.empty()) out << "  meshes: " << o.outDir << '\n';
+  return 0;
+}
+
+int listScenes(std::ostream& out) {
+  const fs::path folder = fs::path(assetsFolder()) / "scenes";
+  if (!fs::is_directory(folder)) throw UsageError(folder.string() + ": no scene folder");
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(folder))
+    if (entry.path().extension() == ".json") files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  for (const fs::path& f : files) {
+    try {
+      const Scene s = loadScene(f.string());
+      out << std::left << std::setw(24) << f.filename().string() << s.description << '\n';
+    } catch (const SceneError& e) {
+      out << std::left << std::setw(24) << f.filename().string() << "(invalid: " << e.what()
+          << ")\n";
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+int runCommandLine(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  try {
+    if (args.empty()) {
+      err << kUsage;
+      return 2;
+    }
+    const std::string& command = args[0];
+    const bool help = std::find(args.begin(), args.end(), "--help") != args.end() ||
+                      std::find(args.begin(), args.end(), "-h") != args.end();
+    if (command == "--help" || command == "-h" || command == "help") {
+      out << kUsage;
+      return 0;
+    }
+    if (command == "run") {
+      if (help) return out << kRunHelp, 0;
+      return runScene(args, out, err);
+    }
+    if (command == "scenes") {
+      if (help) return out << "nucleon scenes: lists the bundled scenes, one line each\n", 0;
+      return listScenes(out);
+    }
+    throw UsageError("unknown command '" + command + "' (try nucleon --help)");
+  } catch (const UsageError& e) {
+    err << "nucleon: " << e.what() << '\n';
+    return 2;
+  } catch (const std::exception& e) {
+    err << "nucleon: " << e.what() << '\n';
+    return 1;
+  }
+}
+
+}  // namespace nucleon

@@ -1,0 +1,50 @@
+// Scene files: JSON describing the objects, solver settings and run length of a simulation.
+// The format is documented in assets/scenes/README.md.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "nucleon/world.h"
+
+namespace nucleon {
+
+// A scene that cannot be loaded; what() is one line naming the file and the problem.
+class SceneError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct SceneObject {
+  ObjectKind kind = ObjectKind::Cloth;
+  ObjectDef def;
+};
+
+struct Scene {
+  std::string path;
+  std::string name;
+  std::string description;
+  int frames = 120;
+  double fps = 60;
+  int threads = 0;  // 0 = all cores
+  Vec3 gravity = Vec3(0, Real(-9.81), 0);
+  SolverSettings solver;
+  std::vector<SceneObject> objects;
+};
+
+// Reads and validates a scene file. Meshes named in it are looked up relative to the scene's
+// folder, then in <assets>/meshes. Throws SceneError.
+Scene loadScene(const std::string& path);
+// The same from JSON text; `label` names the source in error messages, `folder` resolves meshes.
+Scene parseScene(const std::string& json, const std::string& label, const std::string& folder);
+
+// Makes a world holding the scene's objects and settings; throws SceneError if an object is
+// rejected by the world (for example a degenerate mesh).
+World buildWorld(const Scene& scene);
+
+// The folder of bundled assets (scenes/, meshes/): $NUCLEON_ASSETS if set, else the source tree's
+// assets/ folder, else the installed share/nucleon/assets.
+std::string assetsFolder();
+
+}  // namespace nucleon

@@ -1,0 +1,333 @@
+#include "nucleon/scene.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "components/simplicial_complex.h"
+#include "nucleon/mesh_io.h"
+#include "nucleon/shapes.h"
+
+namespace nucleon {
+namespace {
+
+using Json = nlohmann::json;
+namespace fs = std::filesystem;
+
+// Reads typed values out of a JSON object, naming the JSON path of whatever is wrong.
+class Reader {
+ public:
+  Reader(const Json& j, std::string where, const std::string& label)
+      : j_(j), where_(std::move(where)), label_(label) {
+    if (!j_.is_object()) fail("expected an object");
+  }
+
+  // Rejects keys the format does not know, so that a typo is an error and not a silent default.
+  void allowOnly(std::initializer_list<const char*> keys) const {
+    std::set<std::string> allowed(keys.begin(), keys.end());
+    for (const auto& [key, value] : j_.items())
+      if (!allowed.count(key)) fail("unknown key '" + key + "'");
+  }
+  bool has(const char* key) const { return j_.contains(key); }
+  Reader child(const char* key) const { return Reader(j_.at(key), at(key), label_); }
+  const Json& raw(const char* key) const { return j_.at(key); }
+
+  double number(const char* key, double fallback, double lo, double hi) const {
+    if (!has(key)) return fallback;
+    return checkNumber(j_.at(key), at(key), lo, hi);
+  }
+  int integer(const char* key, int fallback, int lo, int hi) const {
+    if (!has(key)) return fallback;
+    const Json& v = j_.at(key);
+    if (!v.is_number_integer()) fail(at(key), "expected an integer");
+    const long long x = v.get<long long>();
+    if (x < lo || x > hi) fail(at(key), "must be in [" + std::to_string(lo) + ", " +
+                                           std::to_string(hi) + "], got " + std::to_string(x));
+    return static_cast<int>(x);
+  }
+  bool boolean(const char* key, bool fallback) const {
+    if (!has(key)) return fallback;
+    if (!j_.at(key).is_boolean()) fail(at(key), "expected true or false");
+    return j_.at(key).get<bool>();
+  }
+  std::string string(const char* key, const std::string& fallback) const {
+    if (!has(key)) return fallback;
+    if (!j_.at(key).is_string()) fail(at(key), "expected a string");
+    return j_.at(key).get<std::string>();
+  }
+  Vec3 vec3(const char* key, const Vec3& fallback) const {
+    if (!has(key)) return fallback;
+    return toVec3(j_.at(key), at(key));
+  }
+  template <std::size_t N>
+  std::array<double, N> numbers(const char* key, std::array<double, N> fallback, double lo,
+                                double hi) const {
+    if (!has(key)) return fallback;
+    const Json& v = j_.at(key);
+    if (!v.is_array() || v.size() != N) fail(at(key), "expected " + std::to_string(N) + " numbers");
+    std::array<double, N> out;
+    for (std::size_t i = 0; i < N; ++i) out[i] = checkNumber(v[i], at(key), lo, hi);
+    return out;
+  }
+
+  Vec3 toVec3(const Json& v, const std::string& where) const {
+    if (!v.is_array() || v.size() != 3) fail(where, "expected [x, y, z]");
+    Vec3 out;
+    for (int k = 0; k < 3; ++k)
+      out[k] = static_cast<Real>(checkNumber(v[k], where, -1e9, 1e9));
+    return out;
+  }
+  template <std::size_t N>
+  std::vector<std::array<Index, N>> indexTuples(const char* key) const {
+    std::vector<std::array<Index, N>> out;
+    if (!has(key)) return out;
+    const Json& list = j_.at(key);
+    if (!list.is_array()) fail(at(key), "expected a list");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const std::string where = at(key) + "[" + std::to_string(i) + "]";
+      if (!list[i].is_array() || list[i].size() != N)
+        fail(where, "expected " + std::to_string(N) + " vertex indices");
+      std::array<Index, N> t;
+      for (std::size_t k = 0; k < N; ++k) t[k] = toIndex(list[i][k], where);
+      out.push_back(t);
+    }
+    return out;
+  }
+  Index toIndex(const Json& v, const std::string& where) const {
+    if (!v.is_number_integer() || v.get<long long>() < 0 || v.get<long long>() > 0x7fffffff)
+      fail(where, "expected a non-negative integer index");
+    return static_cast<Index>(v.get<long long>());
+  }
+
+  [[noreturn]] void fail(const std::string& message) const { fail(where_, message); }
+  [[noreturn]] void fail(const std::string& where, const std::string& message) const {
+    throw SceneError(label_ + ": " + (where.empty() ? "" : where + ": ") + message);
+  }
+  std::string at(const char* key) const { return where_.empty() ? key : where_ + "." + key; }
+
+ private:
+  double checkNumber(const Json& v, const std::string& where, double lo, double hi) const {
+    if (!v.is_number()) fail(where, "expected a number");
+    const double x = v.get<double>();
+    if (!std::isfinite(x)) fail(where, "number is not finite");
+    if (x < lo || x > hi) {
+      std::ostringstream out;
+      out << "must be in [" << lo << ", " << hi << "], got " << x;
+      fail(where, out.str());
+    }
+    return x;
+  }
+
+  const Json& j_;
+  std::string where_;
+  const std::string& label_;
+};
+
+ObjectDef readShape(const Reader& shape, const std::string& folder) {
+  shape.allowOnly({"grid", "polyline", "icosphere", "tet_box", "obj", "mesh", "points"});
+  int given = 0;
+  for (const char* k : {"grid", "polyline", "icosphere", "tet_box", "obj", "mesh", "points"})
+    given += shape.has(k);
+  if (given != 1)
+    shape.fail("give exactly one of grid, polyline, icosphere, tet_box, obj, mesh, points");
+  try {
+    if (shape.has("grid")) {
+      const Reader g = shape.child("grid");
+      g.allowOnly({"resolution", "size", "center", "vertical"});
+      GridSpec spec;
+      const auto res = g.numbers<2>("resolution", {64, 64}, 2, 8192);
+      const auto size = g.numbers<2>("size", {2, 2}, 1e-6, 1e6);
+      spec.resolution = {static_cast<int>(res[0]), static_cast<int>(res[1])};
+      spec.size = {static_cast<Real>(size[0]), static_cast<Real>(size[1])};
+      spec.center = g.vec3("center", spec.center);
+      spec.vertical = g.boolean("vertical", false);
+      return gridCloth(spec);
+    }
+    if (shape.has("polyline")) {
+      const Reader p = shape.child("polyline");
+      p.allowOnly({"from", "to", "segments", "points"});
+      if (p.has("points")) {
+        const Json& list = p.raw("points");
+        if (!list.is_array()) p.fail(p.at("points"), "expected a list of [x, y, z]");
+        std::vector<Vec3> points;
+        for (const Json& v : list) points.push_back(p.toVec3(v, p.at("points")));
+        return polylineRope(points);
+      }
+      return polylineRope(p.vec3("from", Vec3(0, 2, 0)), p.vec3("to", Vec3(1, 2, 0)),
+                          p.integer("segments", 10, 1, 1000000));
+    }
+    if (shape.has("icosphere")) {
+      const Reader s = shape.child("icosphere");
+      s.allowOnly({"center", "radius", "subdivisions"});
+      return icosphere(s.vec3("center", Vec3::Zero()),
+                       static_cast<Real>(s.number("radius", 0.5, 1e-6, 1e6)),
+                       s.integer("subdivisions", 3, 0, 7));
+    }
+    if (shape.has("tet_box")) {
+      const Reader b = shape.child("tet_box");
+      b.allowOnly({"center", "size", "cells"});
+      const auto cells = b.numbers<3>("cells", {4, 4, 4}, 1, 512);
+      return tetBox(b.vec3("center", Vec3(0, 1, 0)), b.vec3("size", Vec3(1, 1, 1)),
+                    {static_cast<int>(cells[0]), static_cast<int>(cells[1]),
+                     static_cast<int>(cells[2])});
+    }
+    if (shape.has("obj")) {
+      if (!shape.raw("obj").is_string()) shape.fail(shape.at("obj"), "expected a file name");
+      const std::string name = shape.raw("obj").get<std::string>();
+      fs::path file = fs::path(folder) / name;
+      if (!fs::exists(file)) file = fs::path(assetsFolder()) / "meshes" / name;
+      return loadObj(file.string());
+    }
+    if (shape.has("points")) {
+      const Json& list = shape.raw("points");
+      if (!list.is_array()) shape.fail(shape.at("points"), "expected a list of [x, y, z]");
+      ObjectDef def;
+      for (const Json& v : list) def.vertices.push_back(shape.toVec3(v, shape.at("points")));
+      return def;
+    }
+    const Reader m = shape.child("mesh");
+    m.allowOnly({"vertices", "edges", "triangles", "tets"});
+    ObjectDef def;
+    if (!m.has("vertices") || !m.raw("vertices").is_array())
+      m.fail(m.at("vertices"), "expected a list of [x, y, z]");
+    for (const Json& v : m.raw("vertices")) def.vertices.push_back(m.toVec3(v, m.at("vertices")));
+    def.edges = m.indexTuples<2>("edges");
+    def.triangles = m.indexTuples<3>("triangles");
+    def.tets = m.indexTuples<4>("tets");
+    return def;
+  } catch (const std::invalid_argument& e) {
+    shape.fail(e.what());
+  } catch (const MeshError& e) {
+    shape.fail(e.what());
+  }
+}
+
+SceneObject readObject(const Reader& o, const std::string& folder) {
+  o.allowOnly({"type", "name", "shape", "material", "pins", "velocity", "offset"});
+  SceneObject out;
+  const std::string type = o.string("type", "");
+  if (type == "cloth") out.kind = ObjectKind::Cloth;
+  else if (type == "rope") out.kind = ObjectKind::Rope;
+  else if (type == "solid") out.kind = ObjectKind::Solid;
+  else if (type == "particles") out.kind = ObjectKind::Particles;
+  else if (type == "collider") out.kind = ObjectKind::Collider;
+  else o.fail(o.at("type"), "expected cloth, rope, solid, particles or collider, got '" + type + "'");
+  if (!o.has("shape")) o.fail("missing 'shape'");
+  out.def = readShape(o.child("shape"), folder);
+  out.def.name = o.string("name", "");
+  const Vec3 offset = o.vec3("offset", Vec3::Zero());
+  for (Vec3& v : out.def.vertices) v += offset;
+  out.def.velocity = o.vec3("velocity", Vec3::Zero());
+  if (o.has("material")) {
+    const Reader m = o.child("material");
+    m.allowOnly({"mass", "stretch_compliance", "compression_compliance", "thickness"});
+    Material& mat = out.def.material;
+    mat.mass = static_cast<Real>(m.number("mass", mat.mass, 1e-9, 1e9));
+    mat.stretchCompliance =
+        static_cast<Real>(m.number("stretch_compliance", mat.stretchCompliance, 0, 1e6));
+    mat.compressionCompliance =
+        static_cast<Real>(m.number("compression_compliance", mat.compressionCompliance, 0, 1e6));
+    mat.thickness = static_cast<Real>(m.number("thickness", mat.thickness, 0, 1e3));
+  }
+  if (o.has("pins")) {
+    const Json& pins = o.raw("pins");
+    if (!pins.is_array()) o.fail(o.at("pins"), "expected a list of vertex indices");
+    for (std::size_t i = 0; i < pins.size(); ++i) {
+      const Index pin = o.toIndex(pins[i], o.at("pins"));
+      if (pin >= out.def.vertices.size())
+        o.fail(o.at("pins"), "vertex " + std::to_string(pin) + " is out of range (the shape has " +
+                                 std::to_string(out.def.vertices.size()) + " vertices)");
+      out.def.pins.push_back(pin);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string assetsFolder() {
+  if (const char* env = std::getenv("NUCLEON_ASSETS"); env && *env) return env;
+#ifdef NUCLEON_SOURCE_ASSETS
+  if (fs::is_directory(NUCLEON_SOURCE_ASSETS)) return NUCLEON_SOURCE_ASSETS;
+#endif
+#ifdef NUCLEON_INSTALL_ASSETS
+  return NUCLEON_INSTALL_ASSETS;
+#else
+  return "assets";
+#endif
+}
+
+Scene parseScene(const std::string& text, const std::string& label, const std::string& folder) {
+  Json j;
+  try {
+    j = Json::parse(text);
+  } catch (const Json::parse_error& e) {
+    std::string what = e.what();
+    // nlohmann prefixes "[json.exception.parse_error.101] parse error at line L, column C: ..."
+    if (auto pos = what.find("] "); pos != std::string::npos) what = what.substr(pos + 2);
+    throw SceneError(label + ": malformed JSON: " + what);
+  }
+  const Reader top(j, "", label);
+  top.allowOnly({"name", "description", "frames", "fps", "threads", "gravity", "solver", "objects"});
+  Scene scene;
+  scene.path = label;
+  scene.name = top.string("name", fs::path(label).stem().string());
+  scene.description = top.string("description", "");
+  scene.frames = top.integer("frames", scene.frames, 1, 1000000);
+  scene.fps = top.number("fps", scene.fps, 1, 100000);
+  scene.threads = top.integer("threads", 0, 0, 4096);
+  scene.gravity = top.vec3("gravity", scene.gravity);
+  if (top.has("solver")) {
+    const Reader s = top.child("solver");
+    s.allowOnly({"type", "iterations", "substeps"});
+    const std::string type = s.string("type", toString(scene.solver.kind));
+    if (!parseSolverKind(type, scene.solver.kind))
+      s.fail(s.at("type"), "unknown solver '" + type + "'");
+    scene.solver.iterations = s.integer("iterations", scene.solver.iterations, 0, 100000);
+    scene.solver.substeps = s.integer("substeps", scene.solver.substeps, 1, 10000);
+  }
+  if (!top.has("objects") || !j.at("objects").is_array() || j.at("objects").empty())
+    top.fail("objects", "expected a non-empty list of objects");
+  for (std::size_t i = 0; i < j.at("objects").size(); ++i)
+    scene.objects.push_back(readObject(
+        Reader(j.at("objects")[i], "objects[" + std::to_string(i) + "]", label), folder));
+  return scene;
+}
+
+Scene loadScene(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw SceneError(path + ": no such scene file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw SceneError(path + ": cannot be read");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return parseScene(buffer.str(), path, fs::path(path).parent_path().string());
+}
+
+World buildWorld(const Scene& scene) {
+  World world;
+  try {
+    world.setGravity(scene.gravity);
+    world.setSolver(scene.solver);
+    world.setThreads(scene.threads);
+    for (const SceneObject& o : scene.objects) {
+      switch (o.kind) {
+        case ObjectKind::Cloth: world.addCloth(o.def); break;
+        case ObjectKind::Rope: world.addRope(o.def); break;
+        case ObjectKind::Solid: world.addSolid(o.def); break;
+        case ObjectKind::Particles: world.addParticles(o.def); break;
+        case ObjectKind::Collider: world.addCollider(o.def); break;
+      }
+    }
+  } catch (const std::exception& e) {
+    throw SceneError(scene.path + ": " + e.what());
+  }
+  return world;
+}
+
+}  // namespace nucleon

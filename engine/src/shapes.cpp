@@ -1,0 +1,140 @@
+#include "nucleon/shapes.h"
+
+#include <cmath>
+#include <map>
+#include <stdexcept>
+#include <string>
+
+namespace nucleon {
+namespace {
+void require(bool ok, const std::string& message) {
+  if (!ok) throw std::invalid_argument(message);
+}
+}  // namespace
+
+ObjectDef gridCloth(const GridSpec& spec) {
+  const int nx = spec.resolution[0], ny = spec.resolution[1];
+  require(nx >= 2 && ny >= 2 && nx <= 8192 && ny <= 8192,
+          "grid resolution must be in [2, 8192] vertices per side");
+  require(spec.size[0] > 0 && spec.size[1] > 0 && std::isfinite(spec.size[0]) &&
+              std::isfinite(spec.size[1]),
+          "grid size must be positive and finite");
+  require(spec.center.allFinite(), "grid center must be finite");
+  ObjectDef def;
+  def.vertices.reserve(static_cast<std::size_t>(nx) * ny);
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const Real u = spec.size[0] * (Real(i) / Real(nx - 1) - Real(0.5));
+      const Real s = spec.size[1] * (Real(j) / Real(ny - 1) - Real(0.5));
+      def.vertices.push_back(spec.center + (spec.vertical ? Vec3(u, -s, 0) : Vec3(u, 0, s)));
+    }
+  for (int j = 0; j + 1 < ny; ++j)
+    for (int i = 0; i + 1 < nx; ++i) {
+      const Index a = j * nx + i, b = a + 1, c = a + nx, d = c + 1;
+      // Counter-clockwise seen from +y (horizontal); the vertical grid is the same one rotated
+      // by 90° about x, so its normal is +z.
+      if ((i + j) % 2 == 0) {
+        def.triangles.push_back({a, c, d});
+        def.triangles.push_back({a, d, b});
+      } else {
+        def.triangles.push_back({a, c, b});
+        def.triangles.push_back({b, c, d});
+      }
+    }
+  return def;
+}
+
+ObjectDef polylineRope(const std::vector<Vec3>& points) {
+  require(points.size() >= 2, "a rope needs at least two points");
+  ObjectDef def;
+  def.vertices = points;
+  for (Index i = 0; i + 1 < points.size(); ++i) def.edges.push_back({i, i + 1});
+  return def;
+}
+
+ObjectDef polylineRope(const Vec3& from, const Vec3& to, int segments) {
+  require(segments >= 1 && segments <= 1000000, "rope segments must be in [1, 1000000]");
+  require(from.allFinite() && to.allFinite(), "rope end points must be finite");
+  std::vector<Vec3> points;
+  for (int i = 0; i <= segments; ++i) points.push_back(from + (to - from) * (Real(i) / segments));
+  return polylineRope(points);
+}
+
+ObjectDef icosphere(const Vec3& center, Real radius, int subdivisions) {
+  require(radius > 0 && std::isfinite(radius), "sphere radius must be positive and finite");
+  require(subdivisions >= 0 && subdivisions <= 7, "sphere subdivisions must be in [0, 7]");
+  require(center.allFinite(), "sphere center must be finite");
+  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
+  std::vector<Vec3d> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
+                          {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  std::vector<std::array<Index, 3>> f = {
+      {0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+      {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+      {3, 8, 9},  {4, 9, 5},  {2, 4, 11},  {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+  for (auto& p : v) p.normalize();
+  for (int level = 0; level < subdivisions; ++level) {
+    std::map<std::pair<Index, Index>, Index> midpoint;
+    auto mid = [&](Index a, Index b) {
+      const auto key = std::minmax(a, b);
+      auto [it, inserted] = midpoint.try_emplace({key.first, key.second}, 0);
+      if (inserted) {
+        it->second = static_cast<Index>(v.size());
+        v.push_back((v[a] + v[b]).normalized());
+      }
+      return it->second;
+    };
+    std::vector<std::array<Index, 3>> next;
+    next.reserve(f.size() * 4);
+    for (const auto& [a, b, c] : f) {
+      const Index ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
+      next.push_back({a, ab, ca});
+      next.push_back({b, bc, ab});
+      next.push_back({c, ca, bc});
+      next.push_back({ab, bc, ca});
+    }
+    f = std::move(next);
+  }
+  ObjectDef def;
+  for (const auto& p : v) def.vertices.push_back(center + (radius * p).cast<Real>());
+  def.triangles = std::move(f);
+  return def;
+}
+
+ObjectDef tetBox(const Vec3& center, const Vec3& size, const std::array<int, 3>& cells) {
+  require(size.allFinite() && size.minCoeff() > 0, "box size must be positive and finite");
+  require(center.allFinite(), "box center must be finite");
+  for (int n : cells) require(n >= 1 && n <= 512, "box cells must be in [1, 512] per axis");
+  const int nx = cells[0] + 1, ny = cells[1] + 1, nz = cells[2] + 1;
+  ObjectDef def;
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const Vec3 u(Real(i) / cells[0] - Real(0.5), Real(j) / cells[1] - Real(0.5),
+                     Real(k) / cells[2] - Real(0.5));
+        def.vertices.push_back(center + u.cwiseProduct(size));
+      }
+  auto id = [&](int i, int j, int k) { return static_cast<Index>((k * ny + j) * nx + i); };
+  // Kuhn subdivision: the six paths from corner 0 to corner 7 along the three axes in every order.
+  const int orders[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (int k = 0; k + 1 < nz; ++k)
+    for (int j = 0; j + 1 < ny; ++j)
+      for (int i = 0; i + 1 < nx; ++i)
+        for (const auto& order : orders) {
+          int c[3] = {i, j, k};
+          std::array<Index, 4> tet;
+          tet[0] = id(c[0], c[1], c[2]);
+          for (int s = 0; s < 3; ++s) {
+            ++c[order[s]];
+            tet[s + 1] = id(c[0], c[1], c[2]);
+          }
+          const Vec3& a = def.vertices[tet[0]];
+          const Real volume = (def.vertices[tet[1]] - a)
+                                  .cross(def.vertices[tet[2]] - a)
+                                  .dot(def.vertices[tet[3]] - a);
+          if (volume < 0) std::swap(tet[2], tet[3]);
+          def.tets.push_back(tet);
+        }
+  return def;
+}
+
+}  // namespace nucleon

@@ -1,0 +1,55 @@
+#include "engine/src/step_graph.h"
+
+#include <chrono>
+
+#include "engine/src/world_state.h"
+#include "systems/integrate.h"
+#include "systems/stretch_solve.h"
+
+namespace nucleon {
+namespace {
+
+template <typename F>
+void timed(double& seconds, F&& body) {
+  const auto start = std::chrono::steady_clock::now();
+  body();
+  seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+StepGraph::StepGraph(WorldState& state)
+    : state_(state),
+      forces_(graph_,
+              [this](tbb::flow::continue_msg) {
+                timed(state_.stageTimes.forces,
+                      [&] { applyForces(state_.particles, state_.gravity, h_); });
+              }),
+      predict_(graph_,
+               [this](tbb::flow::continue_msg) {
+                 timed(state_.stageTimes.predict, [&] { predictPositions(state_.particles, h_); });
+               }),
+      solve_(graph_,
+             [this](tbb::flow::continue_msg) {
+               timed(state_.stageTimes.solve, [&] {
+                 std::fill(state_.stretch.lambda.begin(), state_.stretch.lambda.end(), Real(0));
+                 for (int sweep = 0; sweep < state_.solver.iterations; ++sweep)
+                   solveStretchGaussSeidel(state_.stretch, state_.particles, h_);
+               });
+             }),
+      update_(graph_, [this](tbb::flow::continue_msg) {
+        timed(state_.stageTimes.update,
+              [&] { state_.nonFiniteRecoveries += updateState(state_.particles, h_); });
+      }) {
+  tbb::flow::make_edge(forces_, predict_);
+  tbb::flow::make_edge(predict_, solve_);
+  tbb::flow::make_edge(solve_, update_);
+}
+
+void StepGraph::runSubstep(Real h) {
+  h_ = h;
+  forces_.try_put(tbb::flow::continue_msg());
+  graph_.wait_for_all();
+}
+
+}  // namespace nucleon

@@ -1,0 +1,328 @@
+#include "nucleon/world.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include <tbb/info.h>
+
+#include "engine/src/step_graph.h"
+#include "engine/src/world_state.h"
+#include "systems/measures.h"
+
+namespace nucleon {
+
+const char* toString(ObjectKind kind) {
+  switch (kind) {
+    case ObjectKind::Cloth: return "cloth";
+    case ObjectKind::Rope: return "rope";
+    case ObjectKind::Solid: return "solid";
+    case ObjectKind::Particles: return "particles";
+    case ObjectKind::Collider: return "collider";
+  }
+  return "?";
+}
+
+const char* toString(SolverKind kind) {
+  switch (kind) {
+    case SolverKind::GaussSeidel: return "gauss-seidel";
+    case SolverKind::Jacobi: return "jacobi";
+    case SolverKind::ColoredGaussSeidel: return "colored-gs";
+    case SolverKind::Multigrid: return "multigrid";
+  }
+  return "?";
+}
+
+bool parseSolverKind(const std::string& name, SolverKind& out) {
+  for (SolverKind k : {SolverKind::GaussSeidel, SolverKind::Jacobi, SolverKind::ColoredGaussSeidel,
+                       SolverKind::Multigrid})
+    if (name == toString(k)) {
+      out = k;
+      return true;
+    }
+  return false;
+}
+
+World::Impl::~Impl() = default;
+
+namespace {
+
+void require(bool ok, const std::string& message) {
+  if (!ok) throw std::invalid_argument(message);
+}
+
+bool finite(const Vec3& v) { return v.allFinite(); }
+
+void validateCommon(const ObjectDef& def, const std::string& what) {
+  require(!def.vertices.empty(), what + ": no vertices");
+  for (std::size_t i = 0; i < def.vertices.size(); ++i)
+    require(finite(def.vertices[i]),
+            what + ": vertex " + std::to_string(i) + " has a non-finite coordinate");
+  const Material& m = def.material;
+  require(std::isfinite(m.mass) && m.mass > 0, what + ": mass must be positive and finite");
+  require(std::isfinite(m.stretchCompliance) && m.stretchCompliance >= 0,
+          what + ": stretch compliance must be finite and non-negative");
+  require(std::isfinite(m.compressionCompliance) && m.compressionCompliance >= 0,
+          what + ": compression compliance must be finite and non-negative");
+  require(std::isfinite(m.thickness) && m.thickness >= 0,
+          what + ": thickness must be finite and non-negative");
+  require(finite(def.velocity), what + ": velocity must be finite");
+  for (Index pin : def.pins)
+    require(pin < def.vertices.size(), what + ": pin " + std::to_string(pin) +
+                                           " is out of range (the object has " +
+                                           std::to_string(def.vertices.size()) + " vertices)");
+}
+
+// Lumped mass: each top simplex gives its measure (length, area, volume) equally to its vertices.
+// Vertices no simplex uses get the mean share so that they stay ordinary free particles.
+std::vector<double> lumpedMeasure(const SimplicialComplex& c, std::span<const Vec3> x) {
+  std::vector<double> share(c.vertexCount(), 0.0);
+  auto at = [&](Index i) { return x[i].cast<double>().eval(); };
+  switch (c.dimension) {
+    case 0:
+      std::fill(share.begin(), share.end(), 1.0);
+      break;
+    case 1:
+      for (const auto& e : c.edges.vertices) {
+        const double l = (at(e[1]) - at(e[0])).norm() / 2;
+        share[e[0]] += l;
+        share[e[1]] += l;
+      }
+      break;
+    case 2:
+      for (const auto& t : c.triangles.vertices) {
+        const double a = (at(t[1]) - at(t[0])).cross(at(t[2]) - at(t[0])).norm() / 6;
+        for (Index v : t) share[v] += a;
+      }
+      break;
+    case 3:
+      for (const auto& t : c.tets.vertices) {
+        const double v =
+            std::abs((at(t[1]) - at(t[0])).cross(at(t[2]) - at(t[0])).dot(at(t[3]) - at(t[0]))) /
+            24;
+        for (Index i : t) share[i] += v;
+      }
+      break;
+  }
+  double total = 0;
+  std::size_t used = 0;
+  for (double s : share)
+    if (s > 0) total += s, ++used;
+  if (total <= 0 || !std::isfinite(total))
+    throw MeshError("every simplex is degenerate (zero length, area or volume)");
+  for (double& s : share)
+    if (s <= 0) s = total / static_cast<double>(used);
+  return share;
+}
+
+}  // namespace
+
+World::World() : impl_(std::make_unique<Impl>()) {}
+World::~World() = default;
+World::World(World&&) noexcept = default;
+World& World::operator=(World&&) noexcept = default;
+
+static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind kind) {
+  WorldState& s = impl.state;
+  const std::string what = std::string(toString(kind)) + " '" +
+                           (def.name.empty() ? "object" + std::to_string(s.objects.size())
+                                             : def.name) +
+                           "'";
+  validateCommon(def, what);
+  const std::size_t n = def.vertices.size();
+
+  ObjectRecord record;
+  record.kind = kind;
+  record.name = def.name.empty() ? "object" + std::to_string(s.objects.size()) : def.name;
+  record.material = def.material;
+  try {
+    switch (kind) {
+      case ObjectKind::Cloth:
+      case ObjectKind::Collider:
+        require(def.edges.empty() && def.tets.empty(), what + " takes triangles only");
+        record.complex = buildFromTriangles(n, def.triangles);
+        break;
+      case ObjectKind::Rope:
+        require(def.triangles.empty() && def.tets.empty(), what + " takes edges only");
+        record.complex = buildFromEdges(n, def.edges);
+        break;
+      case ObjectKind::Solid:
+        require(def.edges.empty() && def.triangles.empty(), what + " takes tetrahedra only");
+        record.complex = buildFromTets(n, def.tets);
+        break;
+      case ObjectKind::Particles:
+        require(def.edges.empty() && def.triangles.empty() && def.tets.empty(),
+                what + " takes points only");
+        record.complex = buildFromPoints(n);
+        break;
+    }
+    auditGeometry(record.complex, def.vertices);
+  } catch (const MeshError& e) {
+    throw MeshError(what + ": " + e.what());
+  }
+  const SimplicialComplex& c = record.complex;
+  if (c.dimension == 2) {
+    record.surface.assign(c.triangles.vertices.begin(), c.triangles.vertices.end());
+    record.closed = c.boundaryEdges().empty() && c.report.nonManifoldFaces == 0 &&
+                    c.report.inconsistentOrientation == 0;
+  } else if (c.dimension == 3) {
+    record.surface = c.boundaryTriangles();
+    record.closed = c.report.nonManifoldFaces == 0;
+  }
+  const std::vector<double> share = lumpedMeasure(c, def.vertices);
+  double shareTotal = 0;
+  for (double v : share) shareTotal += v;
+
+  // Everything validated: from here on the world changes.
+  ParticlePool& particles = s.particles;
+  const Index first = particles.append(n);
+  const bool kinematic = kind == ObjectKind::Collider;
+  for (std::size_t i = 0; i < n; ++i) {
+    particles.x[first + i] = def.vertices[i];
+    particles.restPosition[first + i] = def.vertices[i];
+    particles.v[first + i] = def.velocity;
+    particles.w[first + i] =
+        kinematic ? Real(0) : static_cast<Real>(shareTotal / (def.material.mass * share[i]));
+    particles.phase[first + i] = static_cast<std::uint32_t>(s.objects.size());
+  }
+  for (Index pin : def.pins) {
+    particles.w[first + pin] = 0;
+    particles.v[first + pin].setZero();
+  }
+  particles.p.assign(particles.x.begin(), particles.x.end());
+  record.firstParticle = first;
+  record.particleCount = static_cast<Index>(n);
+  if (record.closed)
+    record.restVolume = enclosedVolume(record.surface, particles.x, record.firstParticle);
+
+  record.stretchRange[0] = static_cast<Index>(s.stretch.size());
+  if (!kinematic)
+    for (const auto& e : c.edges.vertices) {
+      const Real rest = (def.vertices[e[0]] - def.vertices[e[1]]).norm();
+      s.stretch.append(first + e[0], first + e[1], rest, def.material.stretchCompliance,
+                       def.material.compressionCompliance);
+    }
+  record.stretchRange[1] = static_cast<Index>(s.stretch.size());
+
+  s.objects.push_back(std::move(record));
+  return ObjectId{static_cast<std::uint32_t>(s.objects.size()), s.objects.back().generation};
+}
+
+ObjectId World::addCloth(const ObjectDef& def) { return addObject(*impl_, def, ObjectKind::Cloth); }
+ObjectId World::addRope(const ObjectDef& def) { return addObject(*impl_, def, ObjectKind::Rope); }
+ObjectId World::addSolid(const ObjectDef& def) { return addObject(*impl_, def, ObjectKind::Solid); }
+ObjectId World::addParticles(const ObjectDef& def) {
+  return addObject(*impl_, def, ObjectKind::Particles);
+}
+ObjectId World::addCollider(const ObjectDef& def) {
+  return addObject(*impl_, def, ObjectKind::Collider);
+}
+
+void World::setGravity(const Vec3& g) {
+  require(finite(g), "gravity must be finite");
+  impl_->state.gravity = g;
+}
+Vec3 World::gravity() const { return impl_->state.gravity; }
+
+void World::setSolver(const SolverSettings& settings) {
+  require(settings.iterations >= 0 && settings.iterations <= 100000,
+          "iterations must be in [0, 100000]");
+  require(settings.substeps >= 1 && settings.substeps <= 10000, "substeps must be in [1, 10000]");
+  require(settings.kind == SolverKind::GaussSeidel,
+          std::string("solver '") + toString(settings.kind) + "' is not available in this build");
+  impl_->state.solver = settings;
+}
+const SolverSettings& World::solver() const { return impl_->state.solver; }
+
+void World::setThreads(int threads) {
+  require(threads >= 0 && threads <= 4096, "threads must be in [0, 4096] (0 = all cores)");
+  if (threads == impl_->threads && impl_->arena) return;
+  impl_->graph.reset();
+  impl_->arena.reset();
+  impl_->threads = threads;
+}
+int World::threads() const {
+  return impl_->threads > 0 ? impl_->threads : tbb::info::default_concurrency();
+}
+
+void World::step(double dt) {
+  require(std::isfinite(dt) && dt > 0 && dt <= 1,
+          "time step must be finite and in (0, 1] seconds, got " + std::to_string(dt));
+  Impl& impl = *impl_;
+  if (!impl.arena) {
+    const int concurrency = impl.threads > 0 ? impl.threads : int{tbb::task_arena::automatic};
+    impl.arena = std::make_unique<tbb::task_arena>(concurrency);
+    impl.arena->initialize();
+  }
+  impl.arena->execute([&] {
+    // The graph is made inside the arena so that its tasks run on the arena's threads.
+    if (!impl.graph) impl.graph = std::make_unique<StepGraph>(impl.state);
+    const Real h = static_cast<Real>(dt / impl.state.solver.substeps);
+    for (int i = 0; i < impl.state.solver.substeps; ++i) impl.graph->runSubstep(h);
+  });
+}
+
+std::size_t World::particleCount() const { return impl_->state.particles.size(); }
+std::size_t World::objectCount() const { return impl_->state.objects.size(); }
+std::span<const Vec3> World::positions() const { return impl_->state.particles.x; }
+std::span<const Vec3> World::velocities() const { return impl_->state.particles.v; }
+std::span<const Real> World::inverseMasses() const { return impl_->state.particles.w; }
+
+static const ObjectRecord& lookup(const World::Impl& impl, ObjectId id) {
+  if (!id.valid() || id.index1 > impl.state.objects.size() ||
+      impl.state.objects[id.index1 - 1].generation != id.generation)
+    throw std::invalid_argument("invalid object id");
+  return impl.state.objects[id.index1 - 1];
+}
+
+std::span<const Vec3> World::positions(ObjectId id) const {
+  const ObjectRecord& o = lookup(*impl_, id);
+  return std::span<const Vec3>(impl_->state.particles.x).subspan(o.firstParticle, o.particleCount);
+}
+std::string World::name(ObjectId id) const { return lookup(*impl_, id).name; }
+ObjectKind World::kind(ObjectId id) const { return lookup(*impl_, id).kind; }
+ObjectId World::objectAt(std::size_t index) const {
+  if (index >= impl_->state.objects.size()) throw std::out_of_range("object index out of range");
+  return ObjectId{static_cast<std::uint32_t>(index + 1), impl_->state.objects[index].generation};
+}
+std::span<const std::array<Index, 3>> World::surfaceTriangles(ObjectId id) const {
+  return lookup(*impl_, id).surface;
+}
+std::span<const std::array<Index, 2>> World::curveEdges(ObjectId id) const {
+  const ObjectRecord& o = lookup(*impl_, id);
+  if (o.kind != ObjectKind::Rope) return {};
+  return o.complex.edges.vertices;
+}
+Real World::thickness(ObjectId id) const { return lookup(*impl_, id).material.thickness; }
+
+std::size_t World::constraintCount(const std::string& family) const {
+  if (family == "stretch") return impl_->state.stretch.size();
+  return 0;
+}
+
+Measures World::measure() const {
+  const WorldState& s = impl_->state;
+  Measures m;
+  const StrainStats strain = measureStrain(s.stretch, s.particles.x);
+  m.maxStrain = strain.max;
+  m.meanStrain = strain.mean;
+  m.kineticEnergy = kineticEnergy(s.particles);
+  m.potentialEnergy = potentialEnergy(s.particles, s.gravity);
+  m.nanCount = countNonFinite(s.particles);
+  const Vec3d up =
+      s.gravity.norm() > 0 ? Vec3d(-s.gravity.cast<double>().normalized()) : Vec3d(0, 1, 0);
+  m.minHeight = s.particles.size() ? std::numeric_limits<double>::infinity() : 0.0;
+  for (const Vec3& x : s.particles.x) m.minHeight = std::min(m.minHeight, up.dot(x.cast<double>()));
+  double rest = 0, now = 0;
+  for (const ObjectRecord& o : s.objects)
+    if (o.closed && o.kind != ObjectKind::Collider) {
+      rest += o.restVolume;
+      now += enclosedVolume(o.surface, s.particles.x, o.firstParticle);
+    }
+  m.volumeRatio = rest != 0 ? now / rest : -1.0;
+  return m;
+}
+
+std::uint64_t World::stateHash() const { return hashState(impl_->state.particles); }
+
+}  // namespace nucleon

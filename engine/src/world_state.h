@@ -1,0 +1,47 @@
+// Everything a World owns: the component pools and the settings the systems read.
+// Internal to the library (the public World hides it behind a pointer); tests and benchmarks in
+// this tree include it to reach the pools directly.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include <tbb/task_arena.h>
+
+#include "components/objects.h"
+#include "components/particles.h"
+#include "components/stretch_constraints.h"
+#include "nucleon/world.h"
+
+namespace nucleon {
+
+class StepGraph;
+
+// Seconds spent in each stage since the world was created (the engine's own profile).
+struct StageTimes {
+  double forces = 0;
+  double predict = 0;
+  double solve = 0;
+  double collisions = 0;
+  double update = 0;
+};
+
+struct WorldState {
+  ParticlePool particles;
+  StretchConstraints stretch;
+  std::vector<ObjectRecord> objects;
+  Vec3 gravity = Vec3(0, Real(-9.81), 0);
+  SolverSettings solver;
+  std::size_t nonFiniteRecoveries = 0;  // particles reset by updateState since creation
+  StageTimes stageTimes;
+};
+
+struct World::Impl {
+  WorldState state;
+  int threads = 0;
+  std::unique_ptr<tbb::task_arena> arena;
+  std::unique_ptr<StepGraph> graph;
+  ~Impl();
+};
+
+}  // namespace nucleon

@@ -1,0 +1,196 @@
+// Scene files and the command line: every bundled scene loads; bad input gives one clear error
+// line, exit code 2 and no output files; a good run writes its stats, meshes and picture.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "components/simplicial_complex.h"
+#include "engine/app/cli.h"
+#include "nucleon/mesh_io.h"
+#include "nucleon/scene.h"
+
+using namespace nucleon;
+namespace fs = std::filesystem;
+
+namespace {
+
+// A fresh folder per test under the system's temporary folder.
+class TempFolder {
+ public:
+  TempFolder() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ = fs::temp_directory_path() /
+            (std::string("nucleon_") + info->test_suite_name() + "_" + info->name());
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~TempFolder() { fs::remove_all(path_); }
+  std::string file(const std::string& name, const std::string& text = "") const {
+    const fs::path p = path_ / name;
+    if (!text.empty()) std::ofstream(p) << text;
+    return p.string();
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+std::string sceneError(const std::string& json) {
+  try {
+    parseScene(json, "test.json", ".");
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+const char* kSmallCloth = R"({
+  "name": "small", "frames": 5,
+  "solver": {"type": "gauss-seidel", "iterations": 4},
+  "objects": [{"type": "cloth", "name": "sheet",
+               "shape": {"grid": {"resolution": [6, 6], "size": [1, 1]}},
+               "pins": [0, 5]}]
+})";
+
+}  // namespace
+
+TEST(Scene, EveryBundledSceneLoadsAndBuilds) {
+  std::size_t count = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(NUCLEON_ASSETS_DIR) / "scenes")) {
+    if (entry.path().extension() != ".json") continue;
+    ++count;
+    const Scene scene = loadScene(entry.path().string());
+    EXPECT_FALSE(scene.description.empty()) << entry.path();
+    const World world = buildWorld(scene);
+    EXPECT_GT(world.particleCount(), 0u) << entry.path();
+  }
+  EXPECT_GE(count, 2u);
+}
+
+TEST(Scene, ClothHangIsA64By64ClothPinnedAtTwoCorners) {
+  const Scene scene = loadScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/cloth_hang.json");
+  const World world = buildWorld(scene);
+  EXPECT_EQ(world.particleCount(), 64u * 64u);
+  const auto w = world.inverseMasses();
+  EXPECT_EQ(std::count(w.begin(), w.end(), Real(0)), 2);
+  const auto x = world.positions();
+  Vec3 lo = x[0], hi = x[0];
+  for (const Vec3& p : x) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  EXPECT_NEAR(hi.x() - lo.x(), 2.0, 1e-5);
+  EXPECT_NEAR(hi.z() - lo.z(), 2.0, 1e-5);
+}
+
+TEST(Scene, ErrorsNameTheProblem) {
+  auto expectError = [](const std::string& json, const std::string& needle) {
+    const std::string message = sceneError(json);
+    EXPECT_NE(message.find(needle), std::string::npos)
+        << "for " << json << "\ngot: '" << message << "'";
+    EXPECT_EQ(message.find('\n'), std::string::npos) << "one line: " << message;
+    EXPECT_EQ(message.rfind("test.json", 0), 0u) << "names the file: " << message;
+  };
+  expectError("{\"objects\": [", "malformed JSON");
+  expectError("{\"objects\": [], \"colour\": 1}", "unknown key 'colour'");
+  expectError("{\"objects\": []}", "objects");
+  expectError(R"({"objects": [{"type": "cloth", "shape": {"grid": {}}, "pins": [99]}]})",
+              "vertex 99 is out of range");
+  expectError(R"({"objects": [{"type": "cloth", "shape": {"mesh": {"vertices":
+                 [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,3]]}}}]})",
+              "vertex 3");
+  expectError(R"({"gravity": [0, 1e999, 0], "objects": [{"type": "particles",
+                 "shape": {"points": [[0,0,0]]}}]})",
+              "not finite");
+  expectError(R"({"objects": [{"type": "jelly", "shape": {"points": [[0,0,0]]}}]})",
+              "got 'jelly'");
+  expectError(R"({"solver": {"type": "magic"}, "objects": [{"type": "particles",
+                 "shape": {"points": [[0,0,0]]}}]})",
+              "unknown solver 'magic'");
+  expectError(R"({"objects": [{"type": "rope", "shape": {"polyline": {"segments": 0}}}]})",
+              "segments");
+  expectError(R"({"objects": [{"type": "cloth", "shape": {"obj": "nowhere.obj"}}]})",
+              "no such mesh file");
+  expectError(R"({"objects": [{"type": "particles", "shape": {"points": [[0,0,0]]},
+                 "material": {"mass": 0}}]})",
+              "mass");
+}
+
+TEST(Scene, ObjLoaderReportsMissingFilesAndBadFaces) {
+  TempFolder tmp;
+  EXPECT_THROW(loadObj(tmp.file("missing.obj")), MeshError);
+  const std::string bad = tmp.file("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
+  EXPECT_THROW(loadObj(bad), MeshError);
+  const std::string quad = tmp.file("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
+  const ObjectDef def = loadObj(quad);
+  EXPECT_EQ(def.vertices.size(), 4u);
+  EXPECT_EQ(def.triangles.size(), 2u);  // triangulated
+}
+
+TEST(CommandLine, BadInputExitsWithTwoAndWritesNothing) {
+  TempFolder tmp;
+  const std::string stats = tmp.file("stats.json"), out = tmp.file("frames"),
+                    picture = tmp.file("picture.png");
+  const std::string broken = tmp.file("broken.json", "{\"objects\": [ {\"type\": ");
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"run", tmp.file("missing.json")},
+        {"run", broken, "--stats", stats, "--out", out, "--render", picture},
+        {"run", tmp.file("ok.json", kSmallCloth), "--frames", "zero"},
+        {"run", tmp.file("ok.json", kSmallCloth), "--bogus"},
+        {"run", tmp.file("ok.json", kSmallCloth), "--solver", "nope", "--stats", stats},
+        {"frobnicate"}}) {
+    std::ostringstream o, e;
+    EXPECT_EQ(runCommandLine(args, o, e), 2) << args[0] << ' ' << args.back();
+    EXPECT_EQ(std::count(e.str().begin(), e.str().end(), '\n'), 1) << e.str();
+    EXPECT_FALSE(fs::exists(stats));
+    EXPECT_FALSE(fs::exists(out));
+    EXPECT_FALSE(fs::exists(picture));
+  }
+  std::ostringstream o, e;
+  runCommandLine({"run", tmp.file("missing.json")}, o, e);
+  EXPECT_NE(e.str().find("missing.json: no such scene file"), std::string::npos) << e.str();
+}
+
+TEST(CommandLine, RunWritesStatsMeshesAndPicture) {
+  TempFolder tmp;
+  const std::string scene = tmp.file("small.json", kSmallCloth);
+  const std::string stats = tmp.file("stats.json"), out = tmp.file("frames"),
+                    picture = tmp.file("picture.png");
+  std::ostringstream o, e;
+  ASSERT_EQ(runCommandLine({"run", scene, "--frames", "3", "--threads", "1", "--stats", stats,
+                            "--out", out, "--render", picture, "--quiet"},
+                           o, e),
+            0)
+      << e.str();
+  EXPECT_TRUE(e.str().empty()) << "--quiet prints no progress: " << e.str();
+  std::ifstream in(stats);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  for (const char* key : {"scene", "frames", "steps", "threads", "solver", "particles",
+                          "constraints", "wall_s", "ms_per_step", "max_strain", "mean_strain",
+                          "intersections", "nan_count", "min_height", "volume_ratio", "energy",
+                          "state_hash", "per_frame"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["frames"], 3);
+  EXPECT_EQ(j["particles"], 36);
+  EXPECT_EQ(j["constraints"]["stretch"], 5 * 6 * 2 + 25);  // grid edges + one diagonal per cell
+  EXPECT_EQ(j["nan_count"], 0);
+  EXPECT_EQ(j["energy"].size(), 3u);
+  EXPECT_EQ(j["per_frame"].size(), 3u);
+  EXPECT_EQ(j["state_hash"].get<std::string>().size(), 16u);
+  EXPECT_GT(j["ms_per_step"].get<double>(), 0.0);
+  EXPECT_TRUE(fs::exists(fs::path(out) / "sheet_0003.obj"));
+  EXPECT_EQ(loadObj((fs::path(out) / "sheet_0003.obj").string()).triangles.size(), 50u);
+  std::ifstream png(picture, std::ios::binary);
+  char magic[4] = {};
+  png.read(magic, 4);
+  EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+}
+
+TEST(CommandLine, ScenesListsTheBundledScenes) {
+  std::ostringstream o, e;
+  EXPECT_EQ(runCommandLine({"scenes"}, o, e), 0) << e.str();
+  EXPECT_NE(o.str().find("cloth_hang.json"), std::string::npos);
+  EXPECT_NE(o.str().find("rope_pendulum.json"), std::string::npos);
+}
