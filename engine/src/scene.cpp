@@ -266,7 +266,7 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
   Json j;
   try {
     j = Json::parse(text);
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {  // syntax errors, and numbers out of double's range
     std::string what = e.what();
     // nlohmann prefixes "[json.exception.parse_error.101] parse error at line L, column C: ..."
     if (auto pos = what.find("] "); pos != std::string::npos) what = what.substr(pos + 2);
