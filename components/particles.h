@@ -12,12 +12,12 @@
 namespace nucleon {
 
 struct ParticlePool {
-  std::vector<Vec3> x;                 // position at the start of the substep
-  std::vector<Vec3> v;                 // velocity
-  std::vector<Vec3> p;                 // predicted position x + h v, moved by constraint sweeps
-  std::vector<Real> w;                 // inverse mass; 0 = pinned or kinematic
-  std::vector<std::uint32_t> phase;    // object id the particle belongs to
-  std::vector<Vec3> restPosition;      // cold: the shape the object was created in
+  std::vector<Vec3> x;               // position at the start of the substep
+  std::vector<Vec3> v;               // velocity
+  std::vector<Vec3> p;               // predicted position x + h v, moved by constraint sweeps
+  std::vector<Real> w;               // inverse mass; 0 = pinned or kinematic
+  std::vector<std::uint32_t> phase;  // object id the particle belongs to
+  std::vector<Vec3> restPosition;    // cold: the shape the object was created in
 
   std::size_t size() const { return x.size(); }
 

@@ -99,7 +99,8 @@ void buildFaces(SimplexPool<K>& top, SimplexPool<K - 1>& faces, std::size_t vert
     if constexpr (K == 1) {
       face = entries[i].key[0];
       if (newFace)  // close the CSR rows of all vertices up to this one (unused vertices: empty)
-        while (faces.parentOffset.size() <= face) faces.parentOffset.push_back(faces.parents.size());
+        while (faces.parentOffset.size() <= face)
+          faces.parentOffset.push_back(faces.parents.size());
     } else if (newFace) {
       if (i != 0) faces.parentOffset.push_back(static_cast<Index>(faces.parents.size()));
       face = static_cast<Index>(faces.vertices.size());
@@ -231,8 +232,10 @@ void auditGeometry(SimplicialComplex& c, std::span<const Vec3> positions,
         const double volume =
             (at(t[1]) - at(t[0])).cross(at(t[2]) - at(t[0])).dot(at(t[3]) - at(t[0])) / 6.0;
         const double threshold = relativeTolerance * meanLength * meanLength * meanLength;
-        if (std::abs(volume) <= threshold) ++degenerate;
-        else if (volume < 0) ++inverted;
+        if (std::abs(volume) <= threshold)
+          ++degenerate;
+        else if (volume < 0)
+          ++inverted;
       }
       break;
     default:

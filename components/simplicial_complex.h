@@ -34,7 +34,7 @@ struct SignedFace {
 // Pool of k-simplices with their boundary and co-boundary relations.
 template <int K>
 struct SimplexPool {
-  std::vector<Simplex<K>> vertices;                    // oriented vertex lists
+  std::vector<Simplex<K>> vertices;                     // oriented vertex lists
   std::vector<std::array<SignedFace, K + 1>> boundary;  // faces in the (k−1)-pool (empty for k = 0)
   // Co-boundary: parents in the (k+1)-pool of simplex s are parents[parentOffset[s] ..
   // parentOffset[s+1]), in increasing parent order, with the sign s has in each parent's boundary.

@@ -2,7 +2,6 @@
 
 #include <cmath>
 
-
 namespace nucleon {
 
 StrainStats measureStrain(const StretchConstraints& constraints, std::span<const Vec3> x) {

@@ -83,8 +83,8 @@ TEST(SimplicialComplex, OpenGridBoundaryEdgesHaveOneParent) {
     if (parents.size() == 1) {
       ++boundary;
       // Boundary edges lie on the rim of the grid.
-      const Vec3 mid = (grid.vertices[c.edges.vertices[e][0]] +
-                        grid.vertices[c.edges.vertices[e][1]]) / 2;
+      const Vec3 mid =
+          (grid.vertices[c.edges.vertices[e][0]] + grid.vertices[c.edges.vertices[e][1]]) / 2;
       EXPECT_NEAR(std::max(std::abs(mid.x()), std::abs(mid.z() - spec.center.z())), 1.0, 1e-5);
     } else {
       EXPECT_EQ(parents[0].sign, -parents[1].sign);
@@ -109,16 +109,15 @@ TEST(SimplicialComplex, TetMeshBoundaryTrianglesFormAClosedOutwardSurface) {
 
   const auto surface = c.boundaryTriangles();
   // Two triangles per boundary quad of the cell grid.
-  EXPECT_EQ(surface.size(), 4u * (cells[0] * cells[1] + cells[1] * cells[2] +
-                                  cells[0] * cells[2]));
+  EXPECT_EQ(surface.size(), 4u * (cells[0] * cells[1] + cells[1] * cells[2] + cells[0] * cells[2]));
   // The boundary is itself a closed, consistently oriented surface...
   const SimplicialComplex shell = buildFromTriangles(box.vertices.size(), surface);
   EXPECT_TRUE(shell.report.clean());
   EXPECT_TRUE(shell.boundaryEdges().empty());
   // A sphere: V − E + F = 2 over the vertices the surface uses (interior vertices have no edge).
-  const auto surfaceVertices = std::count_if(
-      shell.points.vertices.begin(), shell.points.vertices.end(),
-      [&](const Simplex<0>& p) { return !shell.points.parentsOf(p[0]).empty(); });
+  const auto surfaceVertices =
+      std::count_if(shell.points.vertices.begin(), shell.points.vertices.end(),
+                    [&](const Simplex<0>& p) { return !shell.points.parentsOf(p[0]).empty(); });
   EXPECT_EQ(surfaceVertices - static_cast<long long>(shell.edges.size()) +
                 static_cast<long long>(surface.size()),
             2);

@@ -64,8 +64,8 @@ TEST(Pendulum, KeepsItsLengthAndSwingsWithTheSmallAnglePeriod) {
   const double length = 1.0, theta0 = 0.05;
   ObjectDef rope;
   const Vec3 pivot(0, 2, 0);
-  rope.vertices = {pivot, pivot + Vec3(Real(length * std::sin(theta0)),
-                                       Real(-length * std::cos(theta0)), 0)};
+  rope.vertices = {
+      pivot, pivot + Vec3(Real(length * std::sin(theta0)), Real(-length * std::cos(theta0)), 0)};
   rope.edges = {{0, 1}};
   rope.pins = {0};
   World world;

@@ -106,8 +106,7 @@ TEST(Scene, ErrorsNameTheProblem) {
               "malformed JSON: number overflow");
   expectError(R"({"fps": 0, "objects": [{"type": "particles", "shape": {"points": [[0,0,0]]}}]})",
               "fps: must be in");
-  expectError(R"({"objects": [{"type": "jelly", "shape": {"points": [[0,0,0]]}}]})",
-              "got 'jelly'");
+  expectError(R"({"objects": [{"type": "jelly", "shape": {"points": [[0,0,0]]}}]})", "got 'jelly'");
   expectError(R"({"solver": {"type": "magic"}, "objects": [{"type": "particles",
                  "shape": {"points": [[0,0,0]]}}]})",
               "unknown solver 'magic'");
@@ -170,10 +169,10 @@ TEST(CommandLine, RunWritesStatsMeshesAndPicture) {
   EXPECT_TRUE(e.str().empty()) << "--quiet prints no progress: " << e.str();
   std::ifstream in(stats);
   const nlohmann::json j = nlohmann::json::parse(in);
-  for (const char* key : {"scene", "frames", "steps", "threads", "solver", "particles",
-                          "constraints", "wall_s", "ms_per_step", "max_strain", "mean_strain",
-                          "intersections", "nan_count", "min_height", "volume_ratio", "energy",
-                          "state_hash", "per_frame"})
+  for (const char* key :
+       {"scene", "frames", "steps", "threads", "solver", "particles", "constraints", "wall_s",
+        "ms_per_step", "max_strain", "mean_strain", "intersections", "nan_count", "min_height",
+        "volume_ratio", "energy", "state_hash", "per_frame"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["frames"], 3);
   EXPECT_EQ(j["particles"], 36);

@@ -82,18 +82,30 @@ RunOptions parseRun(const std::vector<std::string>& args) {
       if (i + 1 >= args.size()) throw UsageError(a + " needs a value");
       return args[++i];
     };
-    if (a == "--frames") o.frames = parseInt(a, value(), 1, 1000000);
-    else if (a == "--substeps") o.substeps = parseInt(a, value(), 1, 10000);
-    else if (a == "--threads") o.threads = parseInt(a, value(), 0, 4096);
-    else if (a == "--iterations") o.iterations = parseInt(a, value(), 0, 100000);
-    else if (a == "--solver") o.solver = value();
-    else if (a == "--out") o.outDir = value();
-    else if (a == "--stats") o.statsFile = value();
-    else if (a == "--render") o.renderFile = value();
-    else if (a == "--quiet") o.quiet = true;
-    else if (!a.empty() && a[0] == '-') throw UsageError("unknown option '" + a + "'");
-    else if (o.scene.empty()) o.scene = a;
-    else throw UsageError("unexpected argument '" + a + "'");
+    if (a == "--frames")
+      o.frames = parseInt(a, value(), 1, 1000000);
+    else if (a == "--substeps")
+      o.substeps = parseInt(a, value(), 1, 10000);
+    else if (a == "--threads")
+      o.threads = parseInt(a, value(), 0, 4096);
+    else if (a == "--iterations")
+      o.iterations = parseInt(a, value(), 0, 100000);
+    else if (a == "--solver")
+      o.solver = value();
+    else if (a == "--out")
+      o.outDir = value();
+    else if (a == "--stats")
+      o.statsFile = value();
+    else if (a == "--render")
+      o.renderFile = value();
+    else if (a == "--quiet")
+      o.quiet = true;
+    else if (!a.empty() && a[0] == '-')
+      throw UsageError("unknown option '" + a + "'");
+    else if (o.scene.empty())
+      o.scene = a;
+    else
+      throw UsageError("unexpected argument '" + a + "'");
   }
   if (o.scene.empty()) throw UsageError("run needs a scene file");
   return o;
@@ -117,7 +129,10 @@ std::string hex16(std::uint64_t h) {
 class Progress {
  public:
   Progress(std::ostream& err, int total, bool quiet)
-      : err_(err), total_(total), quiet_(quiet), terminal_(isatty(STDERR_FILENO) && &err == &std::cerr),
+      : err_(err),
+        total_(total),
+        quiet_(quiet),
+        terminal_(isatty(STDERR_FILENO) && &err == &std::cerr),
         last_(Clock::now()) {}
   void update(int done) {
     if (quiet_) return;
@@ -229,8 +244,8 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
 
   out << scene.name << ": " << scene.frames << " frames, " << world.particleCount()
       << " particles, " << world.constraintCount("stretch") << " stretch constraints, "
-      << toString(scene.solver.kind) << " x" << scene.solver.iterations << ", "
-      << world.threads() << " threads\n"
+      << toString(scene.solver.kind) << " x" << scene.solver.iterations << ", " << world.threads()
+      << " threads\n"
       << std::setprecision(4) << "  " << msPerStep << " ms/step, max strain " << m.maxStrain
       << ", mean strain " << m.meanStrain << ", min height " << m.minHeight << ", NaN "
       << m.nanCount << ", state " << hex16(world.stateHash()) << '\n';

@@ -36,9 +36,8 @@ Vec3f palette(std::size_t i) {
 void addTriangles(RTCDevice device, RTCScene scene, const std::vector<Vec3f>& vertices,
                   const std::vector<std::array<unsigned, 3>>& triangles, unsigned id) {
   RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0,
-                                                        RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                                        vertices.size()));
+  auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(
+      g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), vertices.size()));
   for (std::size_t i = 0; i < vertices.size(); ++i)
     for (int k = 0; k < 3; ++k) v[3 * i + k] = vertices[i][k];
   auto* t = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
@@ -160,8 +159,8 @@ void renderPng(const World& world, const std::string& path, const RenderSettings
       for (int x = 0; x < w; ++x) {
         const float u = (2.0f * (static_cast<float>(x) + 0.5f) / static_cast<float>(w) - 1.0f) *
                         tanHalf * aspect;
-        const float v = (1.0f - 2.0f * (static_cast<float>(y) + 0.5f) / static_cast<float>(h)) *
-                        tanHalf;
+        const float v =
+            (1.0f - 2.0f * (static_cast<float>(y) + 0.5f) / static_cast<float>(h)) * tanHalf;
         const Vec3f dir = (forward + u * right + v * up).normalized();
         RTCRayHit rh{};
         rh.ray.org_x = eye.x(), rh.ray.org_y = eye.y(), rh.ray.org_z = eye.z();
@@ -181,9 +180,9 @@ void renderPng(const World& world, const std::string& path, const RenderSettings
           Vec3f base = albedo[rh.hit.geomID];
           if (rh.hit.geomID == groundId) {
             const float cell = 0.1f * extent;
-            const int checker =
-                (static_cast<int>(std::floor(hit.x() / cell)) +
-                 static_cast<int>(std::floor(hit.z() / cell))) & 1;
+            const int checker = (static_cast<int>(std::floor(hit.x() / cell)) +
+                                 static_cast<int>(std::floor(hit.z() / cell))) &
+                                1;
             base = checker ? Vec3f(0.82f, 0.82f, 0.80f) : Vec3f(0.62f, 0.62f, 0.60f);
           }
           RTCRay shadow{};

@@ -46,8 +46,9 @@ class Reader {
     const Json& v = j_.at(key);
     if (!v.is_number_integer()) fail(at(key), "expected an integer");
     const long long x = v.get<long long>();
-    if (x < lo || x > hi) fail(at(key), "must be in [" + std::to_string(lo) + ", " +
-                                           std::to_string(hi) + "], got " + std::to_string(x));
+    if (x < lo || x > hi)
+      fail(at(key), "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
+                        std::to_string(x));
     return static_cast<int>(x);
   }
   bool boolean(const char* key, bool fallback) const {
@@ -78,8 +79,7 @@ class Reader {
   Vec3 toVec3(const Json& v, const std::string& where) const {
     if (!v.is_array() || v.size() != 3) fail(where, "expected [x, y, z]");
     Vec3 out;
-    for (int k = 0; k < 3; ++k)
-      out[k] = static_cast<Real>(checkNumber(v[k], where, -1e9, 1e9));
+    for (int k = 0; k < 3; ++k) out[k] = static_cast<Real>(checkNumber(v[k], where, -1e9, 1e9));
     return out;
   }
   template <std::size_t N>
@@ -172,9 +172,9 @@ ObjectDef readShape(const Reader& shape, const std::string& folder) {
       const Reader b = shape.child("tet_box");
       b.allowOnly({"center", "size", "cells"});
       const auto cells = b.numbers<3>("cells", {4, 4, 4}, 1, 512);
-      return tetBox(b.vec3("center", Vec3(0, 1, 0)), b.vec3("size", Vec3(1, 1, 1)),
-                    {static_cast<int>(cells[0]), static_cast<int>(cells[1]),
-                     static_cast<int>(cells[2])});
+      return tetBox(
+          b.vec3("center", Vec3(0, 1, 0)), b.vec3("size", Vec3(1, 1, 1)),
+          {static_cast<int>(cells[0]), static_cast<int>(cells[1]), static_cast<int>(cells[2])});
     }
     if (shape.has("obj")) {
       if (!shape.raw("obj").is_string()) shape.fail(shape.at("obj"), "expected a file name");
@@ -211,12 +211,18 @@ SceneObject readObject(const Reader& o, const std::string& folder) {
   o.allowOnly({"type", "name", "shape", "material", "pins", "velocity", "offset"});
   SceneObject out;
   const std::string type = o.string("type", "");
-  if (type == "cloth") out.kind = ObjectKind::Cloth;
-  else if (type == "rope") out.kind = ObjectKind::Rope;
-  else if (type == "solid") out.kind = ObjectKind::Solid;
-  else if (type == "particles") out.kind = ObjectKind::Particles;
-  else if (type == "collider") out.kind = ObjectKind::Collider;
-  else o.fail(o.at("type"), "expected cloth, rope, solid, particles or collider, got '" + type + "'");
+  if (type == "cloth")
+    out.kind = ObjectKind::Cloth;
+  else if (type == "rope")
+    out.kind = ObjectKind::Rope;
+  else if (type == "solid")
+    out.kind = ObjectKind::Solid;
+  else if (type == "particles")
+    out.kind = ObjectKind::Particles;
+  else if (type == "collider")
+    out.kind = ObjectKind::Collider;
+  else
+    o.fail(o.at("type"), "expected cloth, rope, solid, particles or collider, got '" + type + "'");
   if (!o.has("shape")) o.fail("missing 'shape'");
   out.def = readShape(o.child("shape"), folder);
   out.def.name = o.string("name", "");
@@ -273,7 +279,8 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     throw SceneError(label + ": malformed JSON: " + what);
   }
   const Reader top(j, "", label);
-  top.allowOnly({"name", "description", "frames", "fps", "threads", "gravity", "solver", "objects"});
+  top.allowOnly(
+      {"name", "description", "frames", "fps", "threads", "gravity", "solver", "objects"});
   Scene scene;
   scene.path = label;
   scene.name = top.string("name", fs::path(label).stem().string());
@@ -317,11 +324,21 @@ World buildWorld(const Scene& scene) {
     world.setThreads(scene.threads);
     for (const SceneObject& o : scene.objects) {
       switch (o.kind) {
-        case ObjectKind::Cloth: world.addCloth(o.def); break;
-        case ObjectKind::Rope: world.addRope(o.def); break;
-        case ObjectKind::Solid: world.addSolid(o.def); break;
-        case ObjectKind::Particles: world.addParticles(o.def); break;
-        case ObjectKind::Collider: world.addCollider(o.def); break;
+        case ObjectKind::Cloth:
+          world.addCloth(o.def);
+          break;
+        case ObjectKind::Rope:
+          world.addRope(o.def);
+          break;
+        case ObjectKind::Solid:
+          world.addSolid(o.def);
+          break;
+        case ObjectKind::Particles:
+          world.addParticles(o.def);
+          break;
+        case ObjectKind::Collider:
+          world.addCollider(o.def);
+          break;
       }
     }
   } catch (const std::exception& e) {

@@ -14,21 +14,30 @@ namespace nucleon {
 
 const char* toString(ObjectKind kind) {
   switch (kind) {
-    case ObjectKind::Cloth: return "cloth";
-    case ObjectKind::Rope: return "rope";
-    case ObjectKind::Solid: return "solid";
-    case ObjectKind::Particles: return "particles";
-    case ObjectKind::Collider: return "collider";
+    case ObjectKind::Cloth:
+      return "cloth";
+    case ObjectKind::Rope:
+      return "rope";
+    case ObjectKind::Solid:
+      return "solid";
+    case ObjectKind::Particles:
+      return "particles";
+    case ObjectKind::Collider:
+      return "collider";
   }
   return "?";
 }
 
 const char* toString(SolverKind kind) {
   switch (kind) {
-    case SolverKind::GaussSeidel: return "gauss-seidel";
-    case SolverKind::Jacobi: return "jacobi";
-    case SolverKind::ColoredGaussSeidel: return "colored-gs";
-    case SolverKind::Multigrid: return "multigrid";
+    case SolverKind::GaussSeidel:
+      return "gauss-seidel";
+    case SolverKind::Jacobi:
+      return "jacobi";
+    case SolverKind::ColoredGaussSeidel:
+      return "colored-gs";
+    case SolverKind::Multigrid:
+      return "multigrid";
   }
   return "?";
 }
@@ -51,7 +60,9 @@ void require(bool ok, const std::string& message) {
   if (!ok) throw std::invalid_argument(message);
 }
 
-bool finite(const Vec3& v) { return v.allFinite(); }
+bool finite(const Vec3& v) {
+  return v.allFinite();
+}
 
 void validateCommon(const ObjectDef& def, const std::string& what) {
   require(!def.vertices.empty(), what + ": no vertices");
@@ -124,10 +135,9 @@ World& World::operator=(World&&) noexcept = default;
 
 static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind kind) {
   WorldState& s = impl.state;
-  const std::string what = std::string(toString(kind)) + " '" +
-                           (def.name.empty() ? "object" + std::to_string(s.objects.size())
-                                             : def.name) +
-                           "'";
+  const std::string what =
+      std::string(toString(kind)) + " '" +
+      (def.name.empty() ? "object" + std::to_string(s.objects.size()) : def.name) + "'";
   validateCommon(def, what);
   const std::size_t n = def.vertices.size();
 
@@ -208,9 +218,15 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
   return ObjectId{static_cast<std::uint32_t>(s.objects.size()), s.objects.back().generation};
 }
 
-ObjectId World::addCloth(const ObjectDef& def) { return addObject(*impl_, def, ObjectKind::Cloth); }
-ObjectId World::addRope(const ObjectDef& def) { return addObject(*impl_, def, ObjectKind::Rope); }
-ObjectId World::addSolid(const ObjectDef& def) { return addObject(*impl_, def, ObjectKind::Solid); }
+ObjectId World::addCloth(const ObjectDef& def) {
+  return addObject(*impl_, def, ObjectKind::Cloth);
+}
+ObjectId World::addRope(const ObjectDef& def) {
+  return addObject(*impl_, def, ObjectKind::Rope);
+}
+ObjectId World::addSolid(const ObjectDef& def) {
+  return addObject(*impl_, def, ObjectKind::Solid);
+}
 ObjectId World::addParticles(const ObjectDef& def) {
   return addObject(*impl_, def, ObjectKind::Particles);
 }
@@ -222,7 +238,9 @@ void World::setGravity(const Vec3& g) {
   require(finite(g), "gravity must be finite");
   impl_->state.gravity = g;
 }
-Vec3 World::gravity() const { return impl_->state.gravity; }
+Vec3 World::gravity() const {
+  return impl_->state.gravity;
+}
 
 void World::setSolver(const SolverSettings& settings) {
   require(settings.iterations >= 0 && settings.iterations <= 100000,
@@ -232,7 +250,9 @@ void World::setSolver(const SolverSettings& settings) {
           std::string("solver '") + toString(settings.kind) + "' is not available in this build");
   impl_->state.solver = settings;
 }
-const SolverSettings& World::solver() const { return impl_->state.solver; }
+const SolverSettings& World::solver() const {
+  return impl_->state.solver;
+}
 
 void World::setThreads(int threads) {
   require(threads >= 0 && threads <= 4096, "threads must be in [0, 4096] (0 = all cores)");
@@ -262,11 +282,21 @@ void World::step(double dt) {
   });
 }
 
-std::size_t World::particleCount() const { return impl_->state.particles.size(); }
-std::size_t World::objectCount() const { return impl_->state.objects.size(); }
-std::span<const Vec3> World::positions() const { return impl_->state.particles.x; }
-std::span<const Vec3> World::velocities() const { return impl_->state.particles.v; }
-std::span<const Real> World::inverseMasses() const { return impl_->state.particles.w; }
+std::size_t World::particleCount() const {
+  return impl_->state.particles.size();
+}
+std::size_t World::objectCount() const {
+  return impl_->state.objects.size();
+}
+std::span<const Vec3> World::positions() const {
+  return impl_->state.particles.x;
+}
+std::span<const Vec3> World::velocities() const {
+  return impl_->state.particles.v;
+}
+std::span<const Real> World::inverseMasses() const {
+  return impl_->state.particles.w;
+}
 
 static const ObjectRecord& lookup(const World::Impl& impl, ObjectId id) {
   if (!id.valid() || id.index1 > impl.state.objects.size() ||
@@ -279,8 +309,12 @@ std::span<const Vec3> World::positions(ObjectId id) const {
   const ObjectRecord& o = lookup(*impl_, id);
   return std::span<const Vec3>(impl_->state.particles.x).subspan(o.firstParticle, o.particleCount);
 }
-std::string World::name(ObjectId id) const { return lookup(*impl_, id).name; }
-ObjectKind World::kind(ObjectId id) const { return lookup(*impl_, id).kind; }
+std::string World::name(ObjectId id) const {
+  return lookup(*impl_, id).name;
+}
+ObjectKind World::kind(ObjectId id) const {
+  return lookup(*impl_, id).kind;
+}
 ObjectId World::objectAt(std::size_t index) const {
   if (index >= impl_->state.objects.size()) throw std::out_of_range("object index out of range");
   return ObjectId{static_cast<std::uint32_t>(index + 1), impl_->state.objects[index].generation};
@@ -293,7 +327,9 @@ std::span<const std::array<Index, 2>> World::curveEdges(ObjectId id) const {
   if (o.kind != ObjectKind::Rope) return {};
   return o.complex.edges.vertices;
 }
-Real World::thickness(ObjectId id) const { return lookup(*impl_, id).material.thickness; }
+Real World::thickness(ObjectId id) const {
+  return lookup(*impl_, id).material.thickness;
+}
 
 std::size_t World::constraintCount(const std::string& family) const {
   if (family == "stretch") return impl_->state.stretch.size();
@@ -323,6 +359,8 @@ Measures World::measure() const {
   return m;
 }
 
-std::uint64_t World::stateHash() const { return hashState(impl_->state.particles); }
+std::uint64_t World::stateHash() const {
+  return hashState(impl_->state.particles);
+}
 
 }  // namespace nucleon

@@ -1,12 +1,13 @@
-// Drops a rope pinned at one end for half a second (a quarter swing) through the installed public API and checks
-// that it fell and stayed finite; exit code 0 on success.
+// Drops a rope pinned at one end for half a second (a quarter swing) through the installed public
+// API and checks that it fell and stayed finite; exit code 0 on success.
 #include <cstdio>
 
 #include <nucleon/shapes.h>
 #include <nucleon/world.h>
 
 int main() {
-  nucleon::ObjectDef rope = nucleon::polylineRope(nucleon::Vec3(0, 2, 0), nucleon::Vec3(1, 2, 0), 10);
+  nucleon::ObjectDef rope =
+      nucleon::polylineRope(nucleon::Vec3(0, 2, 0), nucleon::Vec3(1, 2, 0), 10);
   rope.pins = {0};
   nucleon::World world;
   const nucleon::ObjectId id = world.addRope(rope);

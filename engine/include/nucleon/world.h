@@ -56,7 +56,7 @@ struct ObjectDef {
   std::vector<std::array<Index, 3>> triangles;  // cloth, colliders
   std::vector<std::array<Index, 4>> tets;       // soft solids
   Material material;
-  std::vector<Index> pins;  // vertices held in place (inverse mass 0)
+  std::vector<Index> pins;       // vertices held in place (inverse mass 0)
   Vec3 velocity = Vec3::Zero();  // initial velocity; for a kinematic collider, its constant motion
 };
 
