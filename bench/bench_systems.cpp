@@ -1,6 +1,7 @@
-// Per-system micro benchmarks: one Gauss–Seidel stretch sweep, and a whole step, on square
-// cloths of 64², 128² and 256² vertices.
+// Per-system micro benchmarks on square cloths of 64², 128² and 256² vertices: one stretch sweep
+// per backend (constraint projections per second) and a whole step.
 #include <benchmark/benchmark.h>
+#include <tbb/task_arena.h>
 
 #include "engine/src/world_state.h"
 #include "nucleon/shapes.h"
@@ -27,6 +28,33 @@ void BM_StretchSweepGaussSeidel(benchmark::State& state) {
       static_cast<double>(s.stretch.size()), benchmark::Counter::kIsIterationInvariantRate);
 }
 BENCHMARK(BM_StretchSweepGaussSeidel)->Arg(64)->Arg(128)->Arg(256)->Unit(benchmark::kMicrosecond);
+
+void BM_StretchSweepParallel(benchmark::State& state) {
+  nucleon::World world = hangingCloth(static_cast<int>(state.range(0)));
+  const auto kind = static_cast<nucleon::SolverKind>(state.range(1));
+  world.setSolver({kind, 10, 1});
+  world.setThreads(static_cast<int>(state.range(2)));
+  for (int i = 0; i < 10; ++i) world.step(1.0 / 60);  // builds incidence and coloring
+  auto& s = world.impl().state;
+  tbb::task_arena arena(static_cast<int>(state.range(2)));
+  for (auto _ : state)
+    arena.execute([&] {
+      if (kind == nucleon::SolverKind::Jacobi)
+        nucleon::solveStretchJacobi(s.stretch, s.particles, 1.0f / 60, 1.0f);
+      else
+        nucleon::solveStretchColored(s.stretch, s.particles, 1.0f / 60);
+    });
+  state.SetLabel(nucleon::toString(kind));
+  state.counters["projections/s"] = benchmark::Counter(
+      static_cast<double>(s.stretch.size()), benchmark::Counter::kIsIterationInvariantRate);
+}
+BENCHMARK(BM_StretchSweepParallel)
+    ->ArgsProduct({{64, 128, 256},
+                   {static_cast<int>(nucleon::SolverKind::Jacobi),
+                    static_cast<int>(nucleon::SolverKind::ColoredGaussSeidel)},
+                   {1, 2}})
+    ->ArgNames({"n", "solver", "threads"})
+    ->Unit(benchmark::kMicrosecond);
 
 void BM_ClothStep(benchmark::State& state) {
   nucleon::World world = hangingCloth(static_cast<int>(state.range(0)));

@@ -7,6 +7,7 @@
 #include <array>
 #include <vector>
 
+#include "components/constraint_graph.h"
 #include "nucleon/types.h"
 
 namespace nucleon {
@@ -17,6 +18,11 @@ struct StretchConstraints {
   std::vector<Real> stretchCompliance;          // α when L > L0 (m/N); 0 = inextensible
   std::vector<Real> compressionCompliance;      // α when L < L0
   std::vector<Real> lambda;                     // XPBD multiplier, reset every substep
+
+  // Derived from `particles` when the topology changes (systems/constraint_graph_build.h).
+  ParticleIncidence incidence;   // for the Jacobi gather
+  ConstraintColoring coloring;   // for colored Gauss–Seidel
+  std::vector<Vec3> correction;  // Jacobi scratch: one Δx per (constraint, end), 2 per constraint
 
   std::size_t size() const { return particles.size(); }
 

@@ -38,4 +38,13 @@ inline StretchCorrection stretchCorrection(const Vec3& xi, const Vec3& xj, Real 
 // the sequential reference, with the best convergence per sweep.
 void solveStretchGaussSeidel(StretchConstraints& constraints, ParticlePool& particles, Real h);
 
+// One Jacobi sweep: every constraint's correction from the same p (parallel over constraints),
+// then the averaged gather (parallel over particles). Needs constraints.incidence.
+void solveStretchJacobi(StretchConstraints& constraints, ParticlePool& particles, Real h,
+                        Real relaxation);
+
+// One colored Gauss–Seidel sweep: colors in sequence, each color's constraints in parallel with
+// direct writes (no two share a particle). Needs constraints.coloring.
+void solveStretchColored(StretchConstraints& constraints, ParticlePool& particles, Real h);
+
 }  // namespace nucleon

@@ -291,12 +291,14 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
   scene.gravity = top.vec3("gravity", scene.gravity);
   if (top.has("solver")) {
     const Reader s = top.child("solver");
-    s.allowOnly({"type", "iterations", "substeps"});
+    s.allowOnly({"type", "iterations", "substeps", "relaxation"});
     const std::string type = s.string("type", toString(scene.solver.kind));
     if (!parseSolverKind(type, scene.solver.kind))
       s.fail(s.at("type"), "unknown solver '" + type + "'");
     scene.solver.iterations = s.integer("iterations", scene.solver.iterations, 0, 100000);
     scene.solver.substeps = s.integer("substeps", scene.solver.substeps, 1, 10000);
+    scene.solver.relaxation =
+        static_cast<Real>(s.number("relaxation", scene.solver.relaxation, 0.01, 1.99));
   }
   if (!top.has("objects") || !j.at("objects").is_array() || j.at("objects").empty())
     top.fail("objects", "expected a non-empty list of objects");

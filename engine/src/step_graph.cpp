@@ -33,8 +33,20 @@ StepGraph::StepGraph(WorldState& state)
              [this](tbb::flow::continue_msg) {
                timed(state_.stageTimes.solve, [&] {
                  std::fill(state_.stretch.lambda.begin(), state_.stretch.lambda.end(), Real(0));
-                 for (int sweep = 0; sweep < state_.solver.iterations; ++sweep)
-                   solveStretchGaussSeidel(state_.stretch, state_.particles, h_);
+                 const SolverSettings& solver = state_.solver;
+                 for (int sweep = 0; sweep < solver.iterations; ++sweep) {
+                   switch (solver.kind) {
+                     case SolverKind::Jacobi:
+                       solveStretchJacobi(state_.stretch, state_.particles, h_, solver.relaxation);
+                       break;
+                     case SolverKind::ColoredGaussSeidel:
+                       solveStretchColored(state_.stretch, state_.particles, h_);
+                       break;
+                     default:
+                       solveStretchGaussSeidel(state_.stretch, state_.particles, h_);
+                       break;
+                   }
+                 }
                });
              }),
       update_(graph_, [this](tbb::flow::continue_msg) {

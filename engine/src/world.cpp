@@ -8,6 +8,7 @@
 
 #include "engine/src/step_graph.h"
 #include "engine/src/world_state.h"
+#include "systems/constraint_graph_build.h"
 #include "systems/measures.h"
 
 namespace nucleon {
@@ -215,6 +216,7 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
   record.stretchRange[1] = static_cast<Index>(s.stretch.size());
 
   s.objects.push_back(std::move(record));
+  s.topologyDirty = true;
   return ObjectId{static_cast<std::uint32_t>(s.objects.size()), s.objects.back().generation};
 }
 
@@ -246,7 +248,9 @@ void World::setSolver(const SolverSettings& settings) {
   require(settings.iterations >= 0 && settings.iterations <= 100000,
           "iterations must be in [0, 100000]");
   require(settings.substeps >= 1 && settings.substeps <= 10000, "substeps must be in [1, 10000]");
-  require(settings.kind == SolverKind::GaussSeidel,
+  require(std::isfinite(settings.relaxation) && settings.relaxation > 0 && settings.relaxation < 2,
+          "relaxation must be in (0, 2)");
+  require(settings.kind != SolverKind::Multigrid,
           std::string("solver '") + toString(settings.kind) + "' is not available in this build");
   impl_->state.solver = settings;
 }
@@ -269,6 +273,14 @@ void World::step(double dt) {
   require(std::isfinite(dt) && dt > 0 && dt <= 1,
           "time step must be finite and in (0, 1] seconds, got " + std::to_string(dt));
   Impl& impl = *impl_;
+  WorldState& s = impl.state;
+  if (s.topologyDirty) {  // derived tables, rebuilt outside the step so a step never allocates
+    const std::span<const std::array<Index, 2>> pairs = s.stretch.particles;
+    s.stretch.incidence = buildIncidence(pairs, s.particles.size());
+    s.stretch.coloring = colorConstraints(pairs, s.particles.size());
+    s.stretch.correction.assign(2 * s.stretch.size(), Vec3::Zero());
+    s.topologyDirty = false;
+  }
   if (!impl.arena) {
     const int concurrency = impl.threads > 0 ? impl.threads : int{tbb::task_arena::automatic};
     impl.arena = std::make_unique<tbb::task_arena>(concurrency);

@@ -32,6 +32,7 @@ struct WorldState {
   std::vector<ObjectRecord> objects;
   Vec3 gravity = Vec3(0, Real(-9.81), 0);
   SolverSettings solver;
+  bool topologyDirty = true;            // constraint incidence and coloring need rebuilding
   std::size_t nonFiniteRecoveries = 0;  // particles reset by updateState since creation
   StageTimes stageTimes;
 };

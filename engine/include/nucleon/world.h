@@ -64,6 +64,9 @@ struct SolverSettings {
   SolverKind kind = SolverKind::GaussSeidel;
   int iterations = 10;  // constraint sweeps per substep
   int substeps = 1;     // substeps per step(dt)
+  // Jacobi relaxation ω in (0, 2): each particle moves by ω times the average of its
+  // constraints' corrections. Ignored by the Gauss–Seidel backends.
+  Real relaxation = 1;
 };
 
 // Quality measures of the current state (DESIGN.md §7).

@@ -1,0 +1,28 @@
+// Builds the incidence table and the coloring of a constraint family from its particle tuples.
+#pragma once
+
+#include <array>
+#include <span>
+
+#include "components/constraint_graph.h"
+
+namespace nucleon {
+
+template <std::size_t N>
+ParticleIncidence buildIncidence(std::span<const std::array<Index, N>> constraints,
+                                 std::size_t particleCount);
+
+// Greedy coloring in constraint order: each constraint takes, among the colors none of its
+// particles has yet, the one with the fewest constraints so far, so that colors come out balanced.
+// At most kMaxColors colors; a constraint that fits none goes to a last, overflow range that the
+// sweep runs serially (ConstraintColoring::overflow).
+template <std::size_t N>
+ConstraintColoring colorConstraints(std::span<const std::array<Index, N>> constraints,
+                                    std::size_t particleCount);
+
+// True if no two constraints of one color share a particle and every constraint appears once.
+template <std::size_t N>
+bool validateColoring(const ConstraintColoring& coloring,
+                      std::span<const std::array<Index, N>> constraints, std::size_t particleCount);
+
+}  // namespace nucleon
