@@ -213,7 +213,9 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
   const Measures m = world.measure();
   const double msPerStep = stepSeconds * 1e3 / scene.frames;
 
-  nlohmann::json constraints = {{"stretch", world.constraintCount("stretch")}};
+  nlohmann::json constraints = {{"stretch", world.constraintCount("stretch")},
+                                {"bend", world.constraintCount("bend")},
+                                {"volume", world.constraintCount("volume")}};
   nlohmann::json stats = {
       {"scene", scene.name},
       {"frames", scene.frames},

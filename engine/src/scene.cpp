@@ -231,7 +231,8 @@ SceneObject readObject(const Reader& o, const std::string& folder) {
   out.def.velocity = o.vec3("velocity", Vec3::Zero());
   if (o.has("material")) {
     const Reader m = o.child("material");
-    m.allowOnly({"mass", "stretch_compliance", "compression_compliance", "thickness"});
+    m.allowOnly({"mass", "stretch_compliance", "compression_compliance", "bend_compliance",
+                 "volume_compliance", "thickness"});
     Material& mat = out.def.material;
     mat.mass = static_cast<Real>(m.number("mass", mat.mass, 1e-9, 1e9));
     mat.stretchCompliance =
@@ -239,6 +240,10 @@ SceneObject readObject(const Reader& o, const std::string& folder) {
     mat.compressionCompliance =
         static_cast<Real>(m.number("compression_compliance", mat.compressionCompliance, 0, 1e6));
     mat.thickness = static_cast<Real>(m.number("thickness", mat.thickness, 0, 1e3));
+    mat.bending = m.has("bend_compliance");
+    mat.bendCompliance = static_cast<Real>(m.number("bend_compliance", 0, 0, 1e6));
+    mat.volumeCompliance =
+        static_cast<Real>(m.number("volume_compliance", mat.volumeCompliance, 0, 1e6));
   }
   if (o.has("pins")) {
     const Json& pins = o.raw("pins");

@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "engine/src/world_state.h"
+#include "systems/constraint_sweeps.h"
 #include "systems/integrate.h"
 #include "systems/stretch_solve.h"
 
@@ -32,7 +33,9 @@ StepGraph::StepGraph(WorldState& state)
       solve_(graph_,
              [this](tbb::flow::continue_msg) {
                timed(state_.stageTimes.solve, [&] {
-                 std::fill(state_.stretch.lambda.begin(), state_.stretch.lambda.end(), Real(0));
+                 for (auto* lambda :
+                      {&state_.stretch.lambda, &state_.bend.lambda, &state_.volume.lambda})
+                   std::fill(lambda->begin(), lambda->end(), Real(0));
                  const SolverSettings& solver = state_.solver;
                  for (int sweep = 0; sweep < solver.iterations; ++sweep) {
                    switch (solver.kind) {
@@ -46,6 +49,11 @@ StepGraph::StepGraph(WorldState& state)
                        solveStretchGaussSeidel(state_.stretch, state_.particles, h_);
                        break;
                    }
+                   // Interleaved: every sweep visits each family once, stretch first.
+                   solveSweep<DihedralKernel>(solver.kind, state_.bend, state_.particles, h_,
+                                              solver.relaxation);
+                   solveSweep<VolumeKernel>(solver.kind, state_.volume, state_.particles, h_,
+                                            solver.relaxation);
                  }
                });
              }),

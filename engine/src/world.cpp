@@ -9,6 +9,7 @@
 #include "engine/src/step_graph.h"
 #include "engine/src/world_state.h"
 #include "systems/constraint_graph_build.h"
+#include "systems/constraint_kernels.h"
 #include "systems/measures.h"
 
 namespace nucleon {
@@ -76,6 +77,10 @@ void validateCommon(const ObjectDef& def, const std::string& what) {
           what + ": stretch compliance must be finite and non-negative");
   require(std::isfinite(m.compressionCompliance) && m.compressionCompliance >= 0,
           what + ": compression compliance must be finite and non-negative");
+  require(std::isfinite(m.bendCompliance) && m.bendCompliance >= 0,
+          what + ": bend compliance must be finite and non-negative");
+  require(std::isfinite(m.volumeCompliance) && m.volumeCompliance >= 0,
+          what + ": volume compliance must be finite and non-negative");
   require(std::isfinite(m.thickness) && m.thickness >= 0,
           what + ": thickness must be finite and non-negative");
   require(finite(def.velocity), what + ": velocity must be finite");
@@ -215,6 +220,34 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
     }
   record.stretchRange[1] = static_cast<Index>(s.stretch.size());
 
+  // Hinges: for each interior edge (a, b), the triangle that runs a → b gives x2 and the one that
+  // runs b → a gives x3, matching DihedralKernel's (x0, x1, x2), (x1, x0, x3).
+  if (kind == ObjectKind::Cloth && def.material.bending)
+    for (Index e = 0; e < c.edges.size(); ++e) {
+      const auto parents = c.edges.parentsOf(e);
+      if (parents.size() != 2) continue;
+      const auto [a, b] = c.edges.vertices[e];
+      auto opposite = [&](Index t) {
+        for (Index v : c.triangles.vertices[t])
+          if (v != a && v != b) return v;
+        return a;
+      };
+      const bool firstForward = parents[0].sign > 0;
+      const Index x2 = opposite(parents[firstForward ? 0 : 1].face);
+      const Index x3 = opposite(parents[firstForward ? 1 : 0].face);
+      const std::array<Index, 4> hinge = {first + a, first + b, first + x2, first + x3};
+      Points<4> x, grad;
+      for (int k = 0; k < 4; ++k) x[k] = def.vertices[hinge[k] - first];
+      s.bend.append(hinge, DihedralKernel::value(x, grad), def.material.bendCompliance);
+    }
+  if (kind == ObjectKind::Solid)
+    for (const auto& t : c.tets.vertices) {
+      Points<4> x, grad;
+      for (int k = 0; k < 4; ++k) x[k] = def.vertices[t[k]];
+      s.volume.append({first + t[0], first + t[1], first + t[2], first + t[3]},
+                      VolumeKernel::value(x, grad), def.material.volumeCompliance);
+    }
+
   s.objects.push_back(std::move(record));
   s.topologyDirty = true;
   return ObjectId{static_cast<std::uint32_t>(s.objects.size()), s.objects.back().generation};
@@ -279,6 +312,12 @@ void World::step(double dt) {
     s.stretch.incidence = buildIncidence(pairs, s.particles.size());
     s.stretch.coloring = colorConstraints(pairs, s.particles.size());
     s.stretch.correction.assign(2 * s.stretch.size(), Vec3::Zero());
+    for (ConstraintPool<4>* pool : {&s.bend, &s.volume}) {
+      const std::span<const std::array<Index, 4>> tuples = pool->particles;
+      pool->incidence = buildIncidence(tuples, s.particles.size());
+      pool->coloring = colorConstraints(tuples, s.particles.size());
+      pool->correction.assign(4 * pool->size(), Vec3::Zero());
+    }
     s.topologyDirty = false;
   }
   if (!impl.arena) {
@@ -345,6 +384,8 @@ Real World::thickness(ObjectId id) const {
 
 std::size_t World::constraintCount(const std::string& family) const {
   if (family == "stretch") return impl_->state.stretch.size();
+  if (family == "bend") return impl_->state.bend.size();
+  if (family == "volume") return impl_->state.volume.size();
   return 0;
 }
 

@@ -8,6 +8,7 @@
 
 #include <tbb/task_arena.h>
 
+#include "components/constraint_pool.h"
 #include "components/objects.h"
 #include "components/particles.h"
 #include "components/stretch_constraints.h"
@@ -29,6 +30,8 @@ struct StageTimes {
 struct WorldState {
   ParticlePool particles;
   StretchConstraints stretch;
+  BendConstraints bend;
+  VolumeConstraints volume;
   std::vector<ObjectRecord> objects;
   Vec3 gravity = Vec3(0, Real(-9.81), 0);
   SolverSettings solver;

@@ -44,6 +44,12 @@ struct Material {
   // XPBD compliance (inverse stiffness, m/N) of the stretch constraints; 0 is inextensible.
   Real stretchCompliance = 0;
   Real compressionCompliance = 0;
+  // Type 3 (dihedral) bending of cloth across every interior edge, off by default; its
+  // compliance is in rad/(N·m).
+  bool bending = false;
+  Real bendCompliance = 0;
+  // Volume constraints of a solid's tetrahedra (m³/N); 0 keeps every tet's volume.
+  Real volumeCompliance = 0;
   // Collision thickness in m: radius of points and edges, half-width of triangle slabs.
   Real thickness = Real(0.01);
 };
