@@ -11,6 +11,13 @@
 using namespace nucleon;
 
 namespace {
+// Test-name suffix for a backend: "colored-gs" → "colored_gs".
+std::string backendName(const ::testing::TestParamInfo<SolverKind>& info) {
+  std::string name = toString(info.param);
+  std::replace(name.begin(), name.end(), '-', '_');
+  return name;
+}
+
 std::vector<std::array<Index, 2>> clothEdges(int n) {
   World world = test::hangingCloth(n, 1);
   return world.impl().state.stretch.particles;
@@ -86,11 +93,7 @@ TEST_P(Determinism, ClothHangStateHashIsTheSameForOneAndTwoThreads) {
 INSTANTIATE_TEST_SUITE_P(Backends, Determinism,
                          ::testing::Values(SolverKind::GaussSeidel, SolverKind::Jacobi,
                                            SolverKind::ColoredGaussSeidel),
-                         [](const auto& info) {
-                           std::string name = toString(info.param);
-                           std::replace(name.begin(), name.end(), '-', '_');
-                           return name;
-                         });
+                         backendName);
 
 class VolumeFamily : public ::testing::TestWithParam<SolverKind> {};
 
@@ -118,8 +121,4 @@ TEST_P(VolumeFamily, HangingSolidKeepsItsVolume) {
 INSTANTIATE_TEST_SUITE_P(Backends, VolumeFamily,
                          ::testing::Values(SolverKind::GaussSeidel, SolverKind::Jacobi,
                                            SolverKind::ColoredGaussSeidel),
-                         [](const auto& info) {
-                           std::string name = toString(info.param);
-                           std::replace(name.begin(), name.end(), '-', '_');
-                           return name;
-                         });
+                         backendName);
