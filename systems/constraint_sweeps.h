@@ -10,6 +10,7 @@
 #include "components/constraint_pool.h"
 #include "components/particles.h"
 #include "nucleon/world.h"
+#include "systems/colored_sweep.h"
 #include "systems/constraint_kernels.h"
 #include "systems/jacobi_gather.h"
 
@@ -68,21 +69,8 @@ void solveColored(ConstraintPool<N>& pool, ParticlePool& particles, Real h) {
   const Real invH2 = Real(1) / (h * h);
   Vec3* p = particles.p.data();
   const Real* w = particles.w.data();
-  const ConstraintColoring& coloring = pool.coloring;
-  for (std::size_t k = 0; k < coloring.colorCount(); ++k) {
-    const Index begin = coloring.colorOffset[k], end = coloring.colorOffset[k + 1];
-    if (coloring.overflow && k + 1 == coloring.colorCount()) {
-      for (Index o = begin; o < end; ++o)
-        sweep_detail::projectInPlace<Kernel>(pool, coloring.order[o], p, w, invH2);
-      continue;
-    }
-    tbb::parallel_for(tbb::blocked_range<Index>(begin, end, sweep_detail::kGrain),
-                      [&](const tbb::blocked_range<Index>& r) {
-                        for (Index o = r.begin(); o != r.end(); ++o)
-                          sweep_detail::projectInPlace<Kernel>(pool, coloring.order[o], p, w,
-                                                               invH2);
-                      });
-  }
+  forEachColor(pool.coloring, sweep_detail::kGrain,
+               [&](Index c) { sweep_detail::projectInPlace<Kernel>(pool, c, p, w, invH2); });
 }
 
 // Runs one sweep of the given backend.

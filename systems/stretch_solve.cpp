@@ -3,6 +3,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "systems/colored_sweep.h"
 #include "systems/jacobi_gather.h"
 
 namespace nucleon {
@@ -57,20 +58,8 @@ void solveStretchColored(StretchConstraints& constraints, ParticlePool& particle
   const Real invH2 = Real(1) / (h * h);
   Vec3* p = particles.p.data();
   const Real* w = particles.w.data();
-  const ConstraintColoring& coloring = constraints.coloring;
-  for (std::size_t k = 0; k < coloring.colorCount(); ++k) {
-    const Index begin = coloring.colorOffset[k], end = coloring.colorOffset[k + 1];
-    if (coloring.overflow && k + 1 == coloring.colorCount()) {
-      for (Index o = begin; o < end; ++o)
-        projectInPlace(constraints, p, w, coloring.order[o], invH2);
-      continue;
-    }
-    tbb::parallel_for(tbb::blocked_range<Index>(begin, end, kGrain),
-                      [&](const tbb::blocked_range<Index>& r) {
-                        for (Index o = r.begin(); o != r.end(); ++o)
-                          projectInPlace(constraints, p, w, coloring.order[o], invH2);
-                      });
-  }
+  forEachColor(constraints.coloring, kGrain,
+               [&](Index c) { projectInPlace(constraints, p, w, c, invH2); });
 }
 
 }  // namespace nucleon

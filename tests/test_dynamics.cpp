@@ -119,14 +119,6 @@ TEST(HangingCloth, NeverGainsEnergy) {
   }
 }
 
-TEST(HangingCloth, SameStateForOneAndTwoThreads) {
-  World one = test::hangingCloth(32, 10, 1, 1);
-  World two = test::hangingCloth(32, 10, 1, 2);
-  test::simulate(one, 30);
-  test::simulate(two, 30);
-  EXPECT_EQ(one.stateHash(), two.stateHash());
-}
-
 TEST(World, RejectsBadInputWithoutChangingState) {
   World world;
   ObjectDef point;

@@ -185,7 +185,12 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
     record.surface = c.boundaryTriangles();
     record.closed = c.report.nonManifoldFaces == 0;
   }
-  const std::vector<double> share = lumpedMeasure(c, def.vertices);
+  std::vector<double> share;
+  try {
+    share = lumpedMeasure(c, def.vertices);
+  } catch (const MeshError& e) {
+    throw MeshError(what + ": " + e.what());
+  }
   double shareTotal = 0;
   for (double v : share) shareTotal += v;
 

@@ -1,0 +1,30 @@
+// The loop of a colored Gauss–Seidel sweep, shared by every constraint family: colors run one
+// after another, the constraints of a color in parallel (no two share a particle, so direct writes
+// do not race and the result does not depend on the thread count), and the overflow range, if
+// any, serially at the end.
+#pragma once
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "components/constraint_graph.h"
+
+namespace nucleon {
+
+// Calls project(c) once for every constraint index c in coloring order.
+template <class Project>
+void forEachColor(const ConstraintColoring& coloring, std::size_t grain, Project&& project) {
+  for (std::size_t k = 0; k < coloring.colorCount(); ++k) {
+    const Index begin = coloring.colorOffset[k], end = coloring.colorOffset[k + 1];
+    if (coloring.overflow && k + 1 == coloring.colorCount()) {
+      for (Index o = begin; o < end; ++o) project(coloring.order[o]);
+      continue;
+    }
+    tbb::parallel_for(tbb::blocked_range<Index>(begin, end, grain),
+                      [&](const tbb::blocked_range<Index>& r) {
+                        for (Index o = r.begin(); o != r.end(); ++o) project(coloring.order[o]);
+                      });
+  }
+}
+
+}  // namespace nucleon
