@@ -1,70 +1,193 @@
-// Per-system micro benchmarks on square cloths of 64², 128² and 256² vertices: one stretch sweep
-// per backend (constraint projections per second) and a whole step.
+// Per-system micro benchmarks. Sizes follow the square cloths of 64², 128² and 256² vertices:
+//  - BM_Sweep: one sweep of one constraint family with one backend at 1 and 2 threads, in
+//    constraint projections per second. Stretch, shear and bend run on the cloth; volume on a
+//    tetrahedral box and curve bend / twist on a helix of about the same particle count.
+//  - BM_Residual: the strain left after k sweeps of the stretch family from the same predicted
+//    state, per backend (convergence per sweep; with the time, convergence per millisecond).
+//  - BM_ClothStep: a whole step of the hanging cloth.
 #include <benchmark/benchmark.h>
 #include <tbb/task_arena.h>
 
+#include <cmath>
+#include <numbers>
+
 #include "engine/src/world_state.h"
 #include "nucleon/shapes.h"
-#include "systems/stretch_solve.h"
+#include "systems/constraint_sweeps.h"
+#include "systems/integrate.h"
+#include "systems/measures.h"
 
 namespace {
 
-nucleon::World hangingCloth(int n) {
-  nucleon::GridSpec spec;
+using namespace nucleon;
+
+constexpr Real kH = Real(1) / 60;
+
+enum class Subject { Stretch, Shear, ClothBend, Volume, CurveBend, Twist };
+const char* subjectName(Subject s) {
+  constexpr const char* names[] = {"stretch", "shear",      "cloth-bend",
+                                   "volume",  "curve-bend", "twist"};
+  return names[static_cast<int>(s)];
+}
+
+World hangingCloth(int n, bool shearAndBend) {
+  GridSpec spec;
   spec.resolution = {n, n};
-  nucleon::ObjectDef cloth = nucleon::gridCloth(spec);
-  cloth.pins = {0, static_cast<nucleon::Index>(n - 1)};
-  nucleon::World world;
+  ObjectDef cloth = gridCloth(spec);
+  cloth.pins = {0, static_cast<Index>(n - 1)};
+  cloth.material.shear = cloth.material.bending = shearAndBend;
+  World world;
   world.addCloth(cloth);
   return world;
 }
 
-void BM_StretchSweepGaussSeidel(benchmark::State& state) {
-  nucleon::World world = hangingCloth(static_cast<int>(state.range(0)));
-  auto& s = world.impl().state;
-  for (int i = 0; i < 10; ++i) world.step(1.0 / 60);  // a deformed state, not the rest shape
-  for (auto _ : state) nucleon::solveStretchGaussSeidel(s.stretch, s.particles, 1.0f / 60);
-  state.counters["projections/s"] = benchmark::Counter(
-      static_cast<double>(s.stretch.size()), benchmark::Counter::kIsIterationInvariantRate);
+// A world whose pools hold the subject's family at the size of an n² cloth.
+World worldFor(Subject subject, int n) {
+  World world;
+  if (subject == Subject::Volume) {
+    const int k = static_cast<int>(std::cbrt(double(n) * n)) - 1;  // (k+1)³ ≈ n² vertices
+    world.addSolid(tetBox(Vec3(0, 1, 0), Vec3(1, 1, 1), {k, k, k}));
+  } else if (subject == Subject::CurveBend || subject == Subject::Twist) {
+    std::vector<Vec3> helix;
+    for (int i = 0; i < n * n; ++i) {
+      const double t = 0.3 * i;
+      helix.emplace_back(Real(std::cos(t)), Real(0.01 * i), Real(std::sin(t)));
+    }
+    ObjectDef rope = polylineRope(helix);
+    rope.material.bending = subject == Subject::CurveBend;
+    rope.material.twist = subject == Subject::Twist;
+    world.addRope(rope);
+  } else {
+    world = hangingCloth(n, true);
+  }
+  return world;
 }
-BENCHMARK(BM_StretchSweepGaussSeidel)->Arg(64)->Arg(128)->Arg(256)->Unit(benchmark::kMicrosecond);
 
-void BM_StretchSweepParallel(benchmark::State& state) {
-  nucleon::World world = hangingCloth(static_cast<int>(state.range(0)));
-  const auto kind = static_cast<nucleon::SolverKind>(state.range(1));
-  world.setSolver({kind, 10, 1});
-  world.setThreads(static_cast<int>(state.range(2)));
-  for (int i = 0; i < 10; ++i) world.step(1.0 / 60);  // builds incidence and coloring
-  auto& s = world.impl().state;
-  tbb::task_arena arena(static_cast<int>(state.range(2)));
-  for (auto _ : state)
-    arena.execute([&] {
-      if (kind == nucleon::SolverKind::Jacobi)
-        nucleon::solveStretchJacobi(s.stretch, s.particles, 1.0f / 60, 1.0f);
-      else
-        nucleon::solveStretchColored(s.stretch, s.particles, 1.0f / 60);
-    });
-  state.SetLabel(nucleon::toString(kind));
-  state.counters["projections/s"] = benchmark::Counter(
-      static_cast<double>(s.stretch.size()), benchmark::Counter::kIsIterationInvariantRate);
+// A deformed state to sweep on: a few frames of motion, then forces and prediction of one more
+// substep so that p differs from x as it does inside a step.
+void prepare(World& world, SolverKind kind, int threads) {
+  SolverSettings settings;
+  settings.kind = kind;
+  world.setSolver(settings);
+  world.setThreads(threads);
+  for (int i = 0; i < 5; ++i) world.step(kH);
+  WorldState& s = world.impl().state;
+  applyForces(s.particles, s.gravity, kH);
+  predictPositions(s.particles, kH);
 }
-BENCHMARK(BM_StretchSweepParallel)
-    ->ArgsProduct({{64, 128, 256},
-                   {static_cast<int>(nucleon::SolverKind::Jacobi),
-                    static_cast<int>(nucleon::SolverKind::ColoredGaussSeidel)},
-                   {1, 2}})
-    ->ArgNames({"n", "solver", "threads"})
+
+template <class Kernel, std::size_t N>
+void sweepLoop(benchmark::State& state, ConstraintPool<N>& pool, ParticlePool& particles,
+               SolverKind kind, int threads) {
+  tbb::task_arena arena(threads);
+  const SweepContext context{particles, kH, 1, nullptr};
+  for (auto _ : state) arena.execute([&] { solveSweep<Kernel>(kind, pool, context); });
+  state.counters["projections/s"] = benchmark::Counter(
+      static_cast<double>(pool.size()), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["constraints"] = static_cast<double>(pool.size());
+}
+
+void BM_Sweep(benchmark::State& state) {
+  const auto subject = static_cast<Subject>(state.range(0));
+  const int n = static_cast<int>(state.range(1));
+  const auto kind = static_cast<SolverKind>(state.range(2));
+  const int threads = static_cast<int>(state.range(3));
+  World world = worldFor(subject, n);
+  prepare(world, kind, threads);
+  WorldState& s = world.impl().state;
+  ConstraintPools& pools = s.constraints;
+  switch (subject) {
+    case Subject::Stretch:
+      sweepLoop<DistanceKernel>(state, pools.stretch, s.particles, kind, threads);
+      break;
+    case Subject::Shear:
+      sweepLoop<AngleKernel>(state, pools.shear, s.particles, kind, threads);
+      break;
+    case Subject::ClothBend:
+      sweepLoop<DihedralKernel>(state, pools.bend, s.particles, kind, threads);
+      break;
+    case Subject::Volume:
+      sweepLoop<VolumeKernel>(state, pools.volume, s.particles, kind, threads);
+      break;
+    case Subject::CurveBend:
+      sweepLoop<AngleKernel>(state, pools.curveBend, s.particles, kind, threads);
+      break;
+    case Subject::Twist:
+      sweepLoop<DihedralKernel>(state, pools.twist, s.particles, kind, threads);
+      break;
+  }
+  state.SetLabel(std::string(subjectName(subject)) + " " + toString(kind));
+}
+
+// Every subject × size × backend, at 1 and 2 threads (Gauss–Seidel is sequential: 1 only).
+void sweepArguments(benchmark::internal::Benchmark* b) {
+  for (int subject = 0; subject <= static_cast<int>(Subject::Twist); ++subject)
+    for (int n : {64, 128, 256})
+      for (SolverKind kind :
+           {SolverKind::GaussSeidel, SolverKind::Jacobi, SolverKind::ColoredGaussSeidel})
+        for (int threads : {1, 2}) {
+          if (kind == SolverKind::GaussSeidel && threads > 1) continue;
+          b->Args({subject, n, static_cast<int>(kind), threads});
+        }
+}
+BENCHMARK(BM_Sweep)
+    ->Apply(sweepArguments)
+    ->ArgNames({"family", "n", "solver", "threads"})
+    ->Unit(benchmark::kMicrosecond);
+
+// Strain left after k stretch sweeps from the same predicted state (restored every iteration,
+// outside the timing). The counters give the mean and max strain |L/L0 − 1| reached.
+void BM_Residual(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const auto kind = static_cast<SolverKind>(state.range(1));
+  const int sweeps = static_cast<int>(state.range(2));
+  const int threads = static_cast<int>(state.range(3));
+  World world = hangingCloth(n, false);
+  prepare(world, kind, threads);
+  WorldState& s = world.impl().state;
+  StretchConstraints& pool = s.constraints.stretch;
+  const std::vector<Vec3> predicted = s.particles.p;
+  tbb::task_arena arena(threads);
+  const SweepContext context{s.particles, kH, 1, nullptr};
+  for (auto _ : state) {
+    state.PauseTiming();
+    s.particles.p = predicted;
+    std::fill(pool.lambda.begin(), pool.lambda.end(), Real(0));
+    state.ResumeTiming();
+    arena.execute([&] {
+      for (int k = 0; k < sweeps; ++k) solveSweep<DistanceKernel>(kind, pool, context);
+    });
+  }
+  const StrainStats strain = measureStrain(pool, s.particles.p);
+  state.counters["mean_strain"] = strain.mean;
+  state.counters["max_strain"] = strain.max;
+  state.SetLabel(toString(kind));
+}
+BENCHMARK(BM_Residual)
+    ->ArgsProduct({{128},
+                   {static_cast<int>(SolverKind::GaussSeidel), static_cast<int>(SolverKind::Jacobi),
+                    static_cast<int>(SolverKind::ColoredGaussSeidel)},
+                   {1, 2, 4, 8, 16, 32, 64},
+                   {2}})
+    ->ArgNames({"n", "solver", "sweeps", "threads"})
     ->Unit(benchmark::kMicrosecond);
 
 void BM_ClothStep(benchmark::State& state) {
-  nucleon::World world = hangingCloth(static_cast<int>(state.range(0)));
-  world.setThreads(static_cast<int>(state.range(1)));
-  world.step(1.0 / 60);  // warm-up: arena and graph creation
-  for (auto _ : state) world.step(1.0 / 60);
+  World world = hangingCloth(static_cast<int>(state.range(0)), false);
+  SolverSettings settings;
+  settings.kind = static_cast<SolverKind>(state.range(1));
+  world.setSolver(settings);
+  world.setThreads(static_cast<int>(state.range(2)));
+  world.step(kH);  // warm-up: arena and graph creation
+  for (auto _ : state) world.step(kH);
+  state.SetLabel(toString(settings.kind));
 }
 BENCHMARK(BM_ClothStep)
-    ->ArgsProduct({{64, 128, 256}, {1, 2}})
-    ->ArgNames({"n", "threads"})
+    ->ArgsProduct({{64, 128, 256},
+                   {static_cast<int>(SolverKind::GaussSeidel), static_cast<int>(SolverKind::Jacobi),
+                    static_cast<int>(SolverKind::ColoredGaussSeidel)},
+                   {1, 2}})
+    ->ArgNames({"n", "solver", "threads"})
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace

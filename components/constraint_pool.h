@@ -1,13 +1,15 @@
-// A pool of one constraint family acting on N particles each, as structure of arrays: the shape
-// every family but stretch uses (stretch has two compliances and its own pool). The kernel that
-// gives the family its meaning lives in systems/constraint_kernels.h.
+// A pool of one constraint family acting on N particles each, as structure of arrays. Every
+// family (stretch, shear, bend, twist, volume) has this shape; the kernel that gives a family its
+// meaning lives in systems/constraint_kernels.h, so a sweep is one loop for any of them.
 #pragma once
 
 #include <array>
+#include <utility>
 #include <vector>
 
 #include "components/constraint_graph.h"
 #include "nucleon/types.h"
+#include "nucleon/world.h"
 
 namespace nucleon {
 
@@ -16,8 +18,15 @@ struct ConstraintPool {
   static constexpr std::size_t kArity = N;
   std::vector<std::array<Index, N>> particles;  // global particle indices, kernel order
   std::vector<Real> rest;                       // C's rest value from the object's rest shape
-  std::vector<Real> compliance;                 // XPBD α; 0 = hard
-  std::vector<Real> lambda;                     // XPBD multiplier, reset every substep
+  // XPBD compliance α (inverse stiffness; 0 = hard) when C ≥ 0, and when C < 0. Cloth resists
+  // stretching but buckles, so stretch gives the two directions their own α; the other families
+  // store the same value twice.
+  std::vector<Real> compliance;
+  std::vector<Real> compressionCompliance;
+  // Stiffness-proportional (Rayleigh) damping time τ in seconds: the constraint force is
+  // −(C + τ dC/dt)/α, so τ damps motion along ∇C without touching rigid motion.
+  std::vector<Real> damping;
+  std::vector<Real> lambda;  // XPBD multiplier, reset every substep
 
   // Derived when the topology changes (systems/constraint_graph_build.h).
   ParticleIncidence incidence;
@@ -25,15 +34,36 @@ struct ConstraintPool {
   std::vector<Vec3> correction;  // Jacobi scratch, N per constraint
 
   std::size_t size() const { return particles.size(); }
-  void append(const std::array<Index, N>& p, Real restValue, Real alpha) {
+
+  // Reorders the constraints so that the one at order[k] moves to k. The step stores each pool
+  // in coloring order, so that a color is a contiguous range in memory as well.
+  void permute(const std::vector<Index>& order) {
+    auto apply = [&](auto& column) {
+      auto old = column;
+      for (std::size_t k = 0; k < order.size(); ++k) column[k] = old[order[k]];
+    };
+    apply(particles);
+    apply(rest);
+    apply(compliance);
+    apply(compressionCompliance);
+    apply(damping);
+    apply(lambda);
+  }
+
+  void append(const std::array<Index, N>& p, Real restValue, Real alpha, Real alphaCompression,
+              Real dampingTime) {
     particles.push_back(p);
     rest.push_back(restValue);
     compliance.push_back(alpha);
+    compressionCompliance.push_back(alphaCompression);
+    damping.push_back(dampingTime);
     lambda.push_back(0);
   }
 };
 
-using BendConstraints = ConstraintPool<4>;    // type 3: dihedral angle of two triangles
-using VolumeConstraints = ConstraintPool<4>;  // signed volume of a tetrahedron
+using StretchConstraints = ConstraintPool<2>;   // type 1: distance between two points
+using AngleConstraints = ConstraintPool<3>;     // type 2: shear of triangles, bend of curves
+using DihedralConstraints = ConstraintPool<4>;  // type 3: bend of cloth, twist of curves
+using VolumeConstraints = ConstraintPool<4>;    // signed volume of a tetrahedron
 
 }  // namespace nucleon

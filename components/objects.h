@@ -18,11 +18,11 @@ struct ObjectRecord {
   Index firstParticle = 0;  // the object's particles are [firstParticle, firstParticle + count)
   Index particleCount = 0;
   Material material;
-  SimplicialComplex complex;                   // local vertex indices
-  std::vector<std::array<Index, 3>> surface;   // oriented surface triangles, local indices
-  bool closed = false;                         // the surface bounds a volume
-  double restVolume = 0;                       // enclosed volume in the rest shape
-  std::array<Index, 2> stretchRange = {0, 0};  // its constraints in StretchConstraints
+  SimplicialComplex complex;                  // local vertex indices
+  std::vector<std::array<Index, 3>> surface;  // oriented surface triangles, local indices
+  bool closed = false;                        // the surface bounds a volume
+  double restVolume = 0;                      // enclosed volume in the rest shape
+  Schedule schedule;                          // empty: the world's
 };
 
 }  // namespace nucleon

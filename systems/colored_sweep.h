@@ -13,17 +13,22 @@ namespace nucleon {
 
 // Calls project(c) once for every constraint index c in coloring order.
 template <class Project>
-void forEachColor(const ConstraintColoring& coloring, std::size_t grain, Project&& project) {
+__attribute__((flatten)) void forEachColor(const ConstraintColoring& coloring, std::size_t grain,
+                                           Project&& project) {
   for (std::size_t k = 0; k < coloring.colorCount(); ++k) {
     const Index begin = coloring.colorOffset[k], end = coloring.colorOffset[k + 1];
     if (coloring.overflow && k + 1 == coloring.colorCount()) {
       for (Index o = begin; o < end; ++o) project(coloring.order[o]);
       continue;
     }
-    tbb::parallel_for(tbb::blocked_range<Index>(begin, end, grain),
-                      [&](const tbb::blocked_range<Index>& r) {
-                        for (Index o = r.begin(); o != r.end(); ++o) project(coloring.order[o]);
-                      });
+    // flatten: the per-constraint projection must inline into this loop.
+    tbb::parallel_for(
+        tbb::blocked_range<Index>(begin, end, grain), [&](const tbb::blocked_range<Index>& r)
+                                                          __attribute__((flatten)) {
+                                                            for (Index o = r.begin(); o != r.end();
+                                                                 ++o)
+                                                              project(coloring.order[o]);
+                                                          });
   }
 }
 

@@ -17,16 +17,40 @@ namespace nucleon {
 template <std::size_t N>
 using Points = std::array<Vec3, N>;
 
+// Kernels run once per constraint per sweep: they must inline into the sweep loop, which GCC's
+// heuristics do not always do for functions of this size.
+#define NUCLEON_KERNEL [[gnu::always_inline]] inline
+
 namespace kernel_detail {
 constexpr Real kTiny = Real(1e-12);
 // Wraps an angle difference to (−π, π] so a constraint never winds the long way round.
-inline Real wrapAngle(Real a) {
+NUCLEON_KERNEL Real wrapAngle(Real a) {
   constexpr Real pi = std::numbers::pi_v<Real>;
   while (a > pi) a -= 2 * pi;
   while (a <= -pi) a += 2 * pi;
   return a;
 }
 }  // namespace kernel_detail
+
+// Type 1: the distance between two points (stretch of edges).
+//   C = ‖x0 − x1‖,  ∇_x0 C = n = (x0 − x1)/‖x0 − x1‖,  ∇_x1 C = −n.
+// Coincident points have no direction: zero gradients, no correction.
+struct DistanceKernel {
+  static constexpr std::size_t kArity = 2;
+  static constexpr bool kAngular = false;
+  static constexpr bool kUnitGradients = true;  // ‖∇_k C‖ = 1 wherever C is differentiable
+  NUCLEON_KERNEL static Real value(const Points<2>& x, Points<2>& grad) {
+    const Vec3 d = x[0] - x[1];
+    const Real length = d.norm();
+    if (length < kernel_detail::kTiny) {
+      grad = {Vec3::Zero(), Vec3::Zero()};
+      return 0;
+    }
+    grad[0] = d * (1 / length);
+    grad[1] = -grad[0];
+    return length;
+  }
+};
 
 // Type 2: the angle θ ∈ [0, π] at x2 between the 1-simplices (x2, x0) and (x2, x1).
 //   θ = atan2(‖u × v‖, u · v),  u = x0 − x2, v = x1 − x2
@@ -36,7 +60,7 @@ inline Real wrapAngle(Real a) {
 struct AngleKernel {
   static constexpr std::size_t kArity = 3;
   static constexpr bool kAngular = true;
-  static Real value(const Points<3>& x, Points<3>& grad) {
+  NUCLEON_KERNEL static Real value(const Points<3>& x, Points<3>& grad) {
     const Vec3 u = x[0] - x[2], v = x[1] - x[2];
     const Real lu = u.norm(), lv = v.norm();
     grad = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
@@ -67,7 +91,7 @@ struct AngleKernel {
 struct DihedralKernel {
   static constexpr std::size_t kArity = 4;
   static constexpr bool kAngular = true;
-  static Real value(const Points<4>& x, Points<4>& grad) {
+  NUCLEON_KERNEL static Real value(const Points<4>& x, Points<4>& grad) {
     const Vec3 e = x[1] - x[0];
     const Vec3 n1 = e.cross(x[2] - x[0]), n2 = (x[3] - x[0]).cross(e);
     const Real le = e.norm(), a1 = n1.squaredNorm(), a2 = n2.squaredNorm();
@@ -95,7 +119,7 @@ struct DihedralKernel {
 struct VolumeKernel {
   static constexpr std::size_t kArity = 4;
   static constexpr bool kAngular = false;
-  static Real value(const Points<4>& x, Points<4>& grad) {
+  NUCLEON_KERNEL static Real value(const Points<4>& x, Points<4>& grad) {
     const Vec3 a = x[1] - x[0], b = x[2] - x[0], c = x[3] - x[0];
     grad[1] = b.cross(c) / 6;
     grad[2] = c.cross(a) / 6;
@@ -105,20 +129,48 @@ struct VolumeKernel {
   }
 };
 
-// One XPBD projection of C = value(x) − rest for any kernel (Macklin et al. 2016, eq. 18):
-//   Δλ = (−C − α̃ λ) / (Σ_k w_k ‖∇_k C‖² + α̃),  α̃ = α / h²,   Δx_k = w_k ∇_k C Δλ.
+// What one projection needs besides positions and inverse masses.
+struct ProjectionTerms {
+  Real rest = 0;             // C's rest value
+  Real alphaTilde = 0;       // α / h² when C ≥ 0
+  Real alphaTildeBelow = 0;  // α / h² when C < 0
+  Real gamma = 0;            // τ / h, the damping time over the substep
+  Real lambda = 0;           // multiplier accumulated in this substep
+};
+
+// One XPBD projection of C = value(x) − rest for any kernel, with stiffness-proportional damping
+// (Macklin et al. 2016, eqs. 18 and 26; our γ = τ/h is their α̃β̃/h for a Rayleigh damping time τ):
+//   Δλ = (−C − α̃ λ − γ ∇C·(x − x_n)) / ((1 + γ) Σ_k w_k ‖∇_k C‖² + α̃),   Δx_k = w_k ∇_k C Δλ,
+// where x_n are the positions at the start of the substep (`start`, read only when γ > 0).
 // Angular constraints take C modulo 2π. Returns Δλ; dx is zero when nothing can move.
 template <class Kernel>
-Real projectConstraint(const Points<Kernel::kArity>& x, const std::array<Real, Kernel::kArity>& w,
-                       Real rest, Real alphaTilde, Real lambda, Points<Kernel::kArity>& dx) {
+NUCLEON_KERNEL Real projectConstraint(const Points<Kernel::kArity>& x,
+                                      const Points<Kernel::kArity>& start,
+                                      const std::array<Real, Kernel::kArity>& w,
+                                      const ProjectionTerms& terms, Points<Kernel::kArity>& dx) {
   Points<Kernel::kArity> grad;
-  Real c = Kernel::value(x, grad) - rest;
+  Real c = Kernel::value(x, grad) - terms.rest;
   if constexpr (Kernel::kAngular) c = kernel_detail::wrapAngle(c);
-  Real denominator = alphaTilde;
-  for (std::size_t k = 0; k < Kernel::kArity; ++k) denominator += w[k] * grad[k].squaredNorm();
+  const Real alphaTilde = c < 0 ? terms.alphaTildeBelow : terms.alphaTilde;
+  Real stiffness = 0, velocity = 0;
+  // Kernels with unit gradients skip the norms: the denominator then does not wait on them.
+  constexpr bool unit = requires {
+    requires Kernel::kUnitGradients;
+  };
+  if constexpr (unit) {
+    if (grad[0].isZero(0))
+      stiffness = 0;  // the kernel's degenerate case
+    else
+      for (std::size_t k = 0; k < Kernel::kArity; ++k) stiffness += w[k];
+  } else {
+    for (std::size_t k = 0; k < Kernel::kArity; ++k) stiffness += w[k] * grad[k].squaredNorm();
+  }
+  if (terms.gamma > 0)
+    for (std::size_t k = 0; k < Kernel::kArity; ++k) velocity += grad[k].dot(x[k] - start[k]);
+  const Real denominator = (1 + terms.gamma) * stiffness + alphaTilde;
   for (auto& d : dx) d.setZero();
-  if (denominator < kernel_detail::kTiny) return 0;
-  const Real dLambda = (-c - alphaTilde * lambda) / denominator;
+  if (stiffness < kernel_detail::kTiny) return 0;
+  const Real dLambda = (-c - alphaTilde * terms.lambda - terms.gamma * velocity) / denominator;
   for (std::size_t k = 0; k < Kernel::kArity; ++k) dx[k] = (w[k] * dLambda) * grad[k];
   return dLambda;
 }

@@ -2,7 +2,13 @@
 // pool order, Jacobi (corrections from the same state, averaged fixed-order gather) and colored
 // Gauss–Seidel (colors in sequence, each in parallel). Dispatch is per family, never per
 // constraint: the kernel is a template parameter.
+//
+// A sweep may be restricted to some objects (per-object schedules): `objectRuns`, when not null,
+// says for each object index whether its constraints take part in this sweep. A constraint
+// belongs to the object of its first particle (particles.phase).
 #pragma once
+
+#include <cstdint>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -16,77 +22,107 @@
 
 namespace nucleon {
 
+// The state a sweep reads besides the pool: particles, substep length and the object filter.
+struct SweepContext {
+  ParticlePool& particles;
+  Real h = 0;
+  Real relaxation = 1;                       // Jacobi ω
+  const std::uint8_t* objectRuns = nullptr;  // null: every object
+};
+
 namespace sweep_detail {
 constexpr std::size_t kGrain = 512;
 
-// Computes constraint c's correction from p; returns Δλ.
+template <std::size_t N>
+NUCLEON_KERNEL bool takesPart(const ConstraintPool<N>& pool, std::size_t c,
+                              const SweepContext& context) {
+  return !context.objectRuns ||
+         context.objectRuns[context.particles.phase[pool.particles[c][0]]] != 0;
+}
+
+// Computes constraint c's correction from p (the positions being solved); returns Δλ.
 template <class Kernel, std::size_t N>
-Real correct(const ConstraintPool<N>& pool, std::size_t c, const Vec3* p, const Real* w, Real invH2,
-             Points<N>& dx) {
-  Points<N> x;
+NUCLEON_KERNEL Real correct(const ConstraintPool<N>& pool, std::size_t c, const Vec3* p,
+                            const ParticlePool& ps, Real invH, Points<N>& dx) {
+  Points<N> x, start;
   std::array<Real, N> weights;
   for (std::size_t k = 0; k < N; ++k) {
     x[k] = p[pool.particles[c][k]];
-    weights[k] = w[pool.particles[c][k]];
+    weights[k] = ps.w[pool.particles[c][k]];
   }
-  return projectConstraint<Kernel>(x, weights, pool.rest[c], pool.compliance[c] * invH2,
-                                   pool.lambda[c], dx);
+  const Real invH2 = invH * invH;
+  ProjectionTerms terms;
+  terms.rest = pool.rest[c];
+  terms.alphaTilde = pool.compliance[c] * invH2;
+  terms.alphaTildeBelow = pool.compressionCompliance[c] * invH2;
+  terms.lambda = pool.lambda[c];
+  if (pool.damping[c] > 0) {  // only damped constraints read the substep's start positions
+    terms.gamma = pool.damping[c] * invH;
+    for (std::size_t k = 0; k < N; ++k) start[k] = ps.x[pool.particles[c][k]];
+  }
+  return projectConstraint<Kernel>(x, start, weights, terms, dx);
 }
 
 template <class Kernel, std::size_t N>
-void projectInPlace(ConstraintPool<N>& pool, std::size_t c, Vec3* p, const Real* w, Real invH2) {
+NUCLEON_KERNEL void projectInPlace(ConstraintPool<N>& pool, std::size_t c, ParticlePool& ps,
+                                   Real invH) {
   Points<N> dx;
-  pool.lambda[c] += correct<Kernel>(pool, c, p, w, invH2, dx);
+  Vec3* p = ps.p.data();
+  pool.lambda[c] += correct<Kernel>(pool, c, p, ps, invH, dx);
   for (std::size_t k = 0; k < N; ++k) p[pool.particles[c][k]] += dx[k];
 }
 }  // namespace sweep_detail
 
 template <class Kernel, std::size_t N>
-void solveGaussSeidel(ConstraintPool<N>& pool, ParticlePool& particles, Real h) {
-  const Real invH2 = Real(1) / (h * h);
+void solveGaussSeidel(ConstraintPool<N>& pool, const SweepContext& context) {
+  const Real invH = 1 / context.h;
   for (std::size_t c = 0; c < pool.size(); ++c)
-    sweep_detail::projectInPlace<Kernel>(pool, c, particles.p.data(), particles.w.data(), invH2);
+    if (sweep_detail::takesPart(pool, c, context))
+      sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH);
 }
 
 template <class Kernel, std::size_t N>
-void solveJacobi(ConstraintPool<N>& pool, ParticlePool& particles, Real h, Real relaxation) {
-  const Real invH2 = Real(1) / (h * h);
-  const Vec3* p = particles.p.data();
-  const Real* w = particles.w.data();
+void solveJacobi(ConstraintPool<N>& pool, const SweepContext& context) {
+  const ParticlePool& ps = context.particles;
+  const Vec3* p = ps.p.data();
+  const Real invH = 1 / context.h;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pool.size(), sweep_detail::kGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       Points<N> dx;
                       for (std::size_t c = r.begin(); c != r.end(); ++c) {
-                        pool.lambda[c] += sweep_detail::correct<Kernel>(pool, c, p, w, invH2, dx);
+                        if (sweep_detail::takesPart(pool, c, context)) {
+                          pool.lambda[c] += sweep_detail::correct<Kernel>(pool, c, p, ps, invH, dx);
+                        } else {
+                          for (auto& d : dx) d.setZero();
+                        }
                         for (std::size_t k = 0; k < N; ++k) pool.correction[N * c + k] = dx[k];
                       }
                     });
-  gatherJacobiCorrections(pool.incidence, pool.correction, particles, relaxation);
+  gatherJacobiCorrections(pool.incidence, pool.correction, context.particles, context.relaxation);
 }
 
 template <class Kernel, std::size_t N>
-void solveColored(ConstraintPool<N>& pool, ParticlePool& particles, Real h) {
-  const Real invH2 = Real(1) / (h * h);
-  Vec3* p = particles.p.data();
-  const Real* w = particles.w.data();
-  forEachColor(pool.coloring, sweep_detail::kGrain,
-               [&](Index c) { sweep_detail::projectInPlace<Kernel>(pool, c, p, w, invH2); });
+void solveColored(ConstraintPool<N>& pool, const SweepContext& context) {
+  const Real invH = 1 / context.h;
+  forEachColor(pool.coloring, sweep_detail::kGrain, [&](Index c) {
+    if (sweep_detail::takesPart(pool, c, context))
+      sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH);
+  });
 }
 
 // Runs one sweep of the given backend.
 template <class Kernel, std::size_t N>
-void solveSweep(SolverKind kind, ConstraintPool<N>& pool, ParticlePool& particles, Real h,
-                Real relaxation) {
+void solveSweep(SolverKind kind, ConstraintPool<N>& pool, const SweepContext& context) {
   if (pool.size() == 0) return;
   switch (kind) {
     case SolverKind::Jacobi:
-      solveJacobi<Kernel>(pool, particles, h, relaxation);
+      solveJacobi<Kernel>(pool, context);
       break;
     case SolverKind::ColoredGaussSeidel:
-      solveColored<Kernel>(pool, particles, h);
+      solveColored<Kernel>(pool, context);
       break;
     default:
-      solveGaussSeidel<Kernel>(pool, particles, h);
+      solveGaussSeidel<Kernel>(pool, context);
       break;
   }
 }

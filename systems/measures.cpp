@@ -13,7 +13,7 @@ StrainStats measureStrain(const StretchConstraints& constraints, std::span<const
   Sum total;
   for (std::size_t c = 0; c < n; ++c) {
     const auto [i, j] = constraints.particles[c];
-    const double rest = constraints.restLength[c];
+    const double rest = constraints.rest[c];
     if (rest <= 0) continue;
     const double strain = std::abs((x[i] - x[j]).cast<double>().norm() / rest - 1.0);
     total.max = std::max(total.max, strain);

@@ -6,8 +6,8 @@
 #include <cstdint>
 #include <span>
 
+#include "components/constraint_pool.h"
 #include "components/particles.h"
-#include "components/stretch_constraints.h"
 
 namespace nucleon {
 

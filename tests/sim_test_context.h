@@ -8,6 +8,14 @@
 
 namespace nucleon::test {
 
+inline SolverSettings solverSettings(SolverKind kind, int iterations, int substeps) {
+  SolverSettings s;
+  s.kind = kind;
+  s.iterations = iterations;
+  s.substeps = substeps;
+  return s;
+}
+
 // A square cloth of n×n vertices, 2 m wide, horizontal at 1 m, pinned at two adjacent corners.
 inline World hangingCloth(int n, int iterations, int substeps = 1, int threads = 0,
                           Real stretchCompliance = 0) {
@@ -17,7 +25,7 @@ inline World hangingCloth(int n, int iterations, int substeps = 1, int threads =
   cloth.pins = {0, static_cast<Index>(n - 1)};
   cloth.material.stretchCompliance = stretchCompliance;
   World world;
-  world.setSolver({SolverKind::GaussSeidel, iterations, substeps});
+  world.setSolver(test::solverSettings(SolverKind::GaussSeidel, iterations, substeps));
   world.setThreads(threads);
   world.addCloth(cloth);
   return world;

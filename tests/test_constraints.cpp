@@ -6,7 +6,6 @@
 #include <random>
 
 #include "systems/constraint_kernels.h"
-#include "systems/stretch_solve.h"
 
 using namespace nucleon;
 
@@ -14,6 +13,15 @@ namespace {
 
 template <class Kernel>
 using P = Points<Kernel::kArity>;
+
+// A hard, undamped projection towards `rest`.
+template <class Kernel>
+Real project(const P<Kernel>& x, const std::array<Real, Kernel::kArity>& w, Real rest,
+             P<Kernel>& dx) {
+  ProjectionTerms terms;
+  terms.rest = rest;
+  return projectConstraint<Kernel>(x, x, w, terms, dx);
+}
 
 template <class Kernel>
 P<Kernel> randomPoints(std::mt19937& rng) {
@@ -84,7 +92,7 @@ void expectFinite(const P<Kernel>& x) {
   for (const Vec3& g : grad) EXPECT_TRUE(g.allFinite());
   std::array<Real, Kernel::kArity> w;
   w.fill(1);
-  const Real dLambda = projectConstraint<Kernel>(x, w, Real(0.5), 0, 0, dx);
+  const Real dLambda = project<Kernel>(x, w, Real(0.5), dx);
   EXPECT_TRUE(std::isfinite(dLambda));
   for (const Vec3& d : dx) EXPECT_TRUE(d.allFinite());
 }
@@ -97,7 +105,7 @@ void expectMomentumConserved(const P<Kernel>& x, Real rest) {
   const Real masses[] = {1.0f, 2.5f, 0.3f, 4.0f};
   for (std::size_t k = 0; k < w.size(); ++k) w[k] = 1 / masses[k];
   P<Kernel> dx;
-  projectConstraint<Kernel>(x, w, rest, 0, 0, dx);
+  project<Kernel>(x, w, rest, dx);
   Vec3 linear = Vec3::Zero(), angular = Vec3::Zero();
   Real scale = 0;
   for (std::size_t k = 0; k < w.size(); ++k) {
@@ -118,7 +126,7 @@ void expectReturnsToRest(P<Kernel> x, Real rest) {
   w[0] = Real(0.5);
   P<Kernel> grad, dx;
   for (int i = 0; i < 50; ++i) {
-    projectConstraint<Kernel>(x, w, rest, 0, 0, dx);
+    project<Kernel>(x, w, rest, dx);
     for (std::size_t k = 0; k < x.size(); ++k) x[k] += dx[k];
   }
   Real c = Kernel::value(x, grad) - rest;
@@ -127,6 +135,9 @@ void expectReturnsToRest(P<Kernel> x, Real rest) {
 
 }  // namespace
 
+TEST(DistanceKernel, GradientMatchesFiniteDifferences) {
+  checkRandomGradients<DistanceKernel>();
+}
 TEST(AngleKernel, GradientMatchesFiniteDifferences) {
   checkRandomGradients<AngleKernel>();
 }
@@ -159,9 +170,9 @@ TEST(Kernels, NearDegenerateConfigurationsGiveNoNaN) {
   expectFinite<VolumeKernel>(
       {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0.3f, 0.3f, 1e-7f)});
   expectFinite<VolumeKernel>({Vec3(0, 0, 0), Vec3(0, 0, 0), Vec3(0, 0, 0), Vec3(0, 0, 0)});
-  // Stretch on coincident points.
-  const StretchCorrection s = stretchCorrection(Vec3(1, 1, 1), Vec3(1, 1, 1), 1, 1, 1, 0, 0, 0, 1);
-  EXPECT_TRUE(s.dxi.allFinite() && s.dxj.allFinite() && std::isfinite(s.dLambda));
+  // Stretch on coincident and nearly coincident points.
+  expectFinite<DistanceKernel>({Vec3(1, 1, 1), Vec3(1, 1, 1)});
+  expectFinite<DistanceKernel>({Vec3(1, 1, 1), Vec3(1, 1, 1 + 1e-7f)});
 }
 
 TEST(Kernels, ProjectionConservesLinearAndAngularMomentum) {
@@ -171,12 +182,8 @@ TEST(Kernels, ProjectionConservesLinearAndAngularMomentum) {
       {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0.3f, 1, 0.2f), Vec3(0.6f, -1, 0.4f)}, Real(0.3));
   expectMomentumConserved<VolumeKernel>(
       {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0.2f, 0.3f, 1)}, Real(0.25));
-  // Stretch: Σ m Δx = 0 along the edge, and the correction is parallel to it (no torque).
-  const Vec3 xi(0.1f, 0.2f, 0.3f), xj(1.0f, -0.5f, 0.7f);
-  const Real wi = 1 / 1.0f, wj = 1 / 4.0f;
-  const StretchCorrection s = stretchCorrection(xi, xj, wi, wj, 0.5f, 0, 0, 0, 3600);
-  EXPECT_LT((s.dxi / wi + s.dxj / wj).norm(), 1e-6);
-  EXPECT_LT((xi.cross(s.dxi / wi) + xj.cross(s.dxj / wj)).norm(), 1e-6);
+  expectMomentumConserved<DistanceKernel>({Vec3(0.1f, 0.2f, 0.3f), Vec3(1.0f, -0.5f, 0.7f)},
+                                          Real(0.5));
 }
 
 TEST(Kernels, EachFamilyReturnsToItsRestValue) {
@@ -186,10 +193,46 @@ TEST(Kernels, EachFamilyReturnsToItsRestValue) {
       {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0.3f, 1, 0.3f), Vec3(0.6f, -1, 0.2f)}, Real(0));
   expectReturnsToRest<VolumeKernel>(
       {Vec3(0, 0, 0), Vec3(1.2f, 0, 0), Vec3(0, 0.8f, 0), Vec3(0.1f, 0.1f, 1.3f)}, Real(1.0 / 6.0));
-  // Stretch: a pair pulled to twice its rest length returns in one hard projection.
-  Vec3 a(0, 0, 0), b(2, 0, 0);
-  const StretchCorrection s = stretchCorrection(a, b, 1, 1, 1, 0, 0, 0, 3600);
-  a += s.dxi;
-  b += s.dxj;
-  EXPECT_NEAR((a - b).norm(), 1, 1e-6);
+  expectReturnsToRest<DistanceKernel>({Vec3(0, 0, 0), Vec3(2, 0.5f, 0)}, Real(1));
+  // A distance is linear along its gradient: one hard projection is exact.
+  const Points<2> pair = {Vec3(0, 0, 0), Vec3(2, 0, 0)};
+  Points<2> dx;
+  project<DistanceKernel>(pair, {1, 1}, 1, dx);
+  EXPECT_NEAR((pair[0] + dx[0] - pair[1] - dx[1]).norm(), 1, 1e-6);
+}
+
+// The compliance is chosen by the sign of C: a hard stretch compliance with a huge compression
+// compliance removes all of an extension and barely resists a compression (cloth that buckles).
+TEST(Kernels, StretchAndCompressionUseTheirOwnCompliance) {
+  const Points<2> stretched = {Vec3(0, 0, 0), Vec3(2, 0, 0)};
+  const Points<2> compressed = {Vec3(0, 0, 0), Vec3(0.5f, 0, 0)};
+  ProjectionTerms terms;
+  terms.rest = 1;
+  terms.alphaTilde = 0;         // hard against stretching
+  terms.alphaTildeBelow = 1e6;  // nearly free in compression (cloth buckles)
+  Points<2> dx;
+  projectConstraint<DistanceKernel>(stretched, stretched, {1, 1}, terms, dx);
+  EXPECT_NEAR((dx[1] - dx[0]).norm(), 1, 1e-6);  // the whole excess removed
+  projectConstraint<DistanceKernel>(compressed, compressed, {1, 1}, terms, dx);
+  EXPECT_LT((dx[1] - dx[0]).norm(), 1e-5);  // 0.5 / (2 + 1e6): barely pushed apart
+}
+
+// Damping acts on the velocity along ∇C only: with γ > 0 the correction opposes the motion
+// x − x_n that changes C, and a rigid translation (which does not change C) is left alone.
+TEST(Kernels, DampingOpposesTheRateOfChangeOfCOnly) {
+  const Points<2> start = {Vec3(0, 0, 0), Vec3(1, 0, 0)};
+  ProjectionTerms terms;
+  terms.rest = 1;
+  terms.alphaTilde = terms.alphaTildeBelow = 1;
+  terms.gamma = 2;
+  Points<2> dx;
+  // Moving apart at C = 0.1: without damping Δλ = −0.1 / 3; damping adds −γ·0.1 to the
+  // numerator and γ·2 to the denominator: Δλ = −(0.1 + 0.2) / (3·2 + 1).
+  const Points<2> apart = {Vec3(0, 0, 0), Vec3(1.1f, 0, 0)};
+  const Real dLambda = projectConstraint<DistanceKernel>(apart, start, {1, 1}, terms, dx);
+  EXPECT_NEAR(dLambda, -0.3 / 7, 1e-6);
+  // Translated together: C and its rate are zero, so nothing moves.
+  const Points<2> translated = {Vec3(0, 0.3f, 0), Vec3(1, 0.3f, 0)};
+  projectConstraint<DistanceKernel>(translated, start, {1, 1}, terms, dx);
+  EXPECT_LT(dx[0].norm() + dx[1].norm(), 1e-7);
 }

@@ -43,7 +43,7 @@ TEST(FreeFall, FollowsClosedFormAndConvergesToTheParabolaAtFirstOrder) {
     point.vertices = {Vec3(0, 10, 0)};
     point.velocity = Vec3(0, 3, 0);
     world.addParticles(point);
-    world.setSolver({SolverKind::GaussSeidel, 10, substeps});
+    world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 10, substeps));
     for (int i = 0; i < 100; ++i) world.step(1.0 / 60);
     const double n = 100.0 * substeps, h = t / n;
     const double closedForm = 10 + n * h * 3 - kG * h * h * n * (n + 1) / 2;
@@ -69,7 +69,7 @@ TEST(Pendulum, KeepsItsLengthAndSwingsWithTheSmallAnglePeriod) {
   rope.edges = {{0, 1}};
   rope.pins = {0};
   World world;
-  world.setSolver({SolverKind::GaussSeidel, 1, 4});
+  world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 1, 4));
   world.addRope(rope);
 
   const double dt = 1.0 / 60;

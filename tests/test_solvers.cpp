@@ -20,7 +20,7 @@ std::string backendName(const ::testing::TestParamInfo<SolverKind>& info) {
 
 std::vector<std::array<Index, 2>> clothEdges(int n) {
   World world = test::hangingCloth(n, 1);
-  return world.impl().state.stretch.particles;
+  return world.impl().state.constraints.stretch.particles;
 }
 }  // namespace
 
@@ -82,7 +82,7 @@ class Determinism : public ::testing::TestWithParam<SolverKind> {};
 TEST_P(Determinism, ClothHangStateHashIsTheSameForOneAndTwoThreads) {
   auto run = [&](int threads) {
     World world = test::hangingCloth(64, 10, 1, threads);
-    world.setSolver({GetParam(), 10, 1});
+    world.setSolver(test::solverSettings(GetParam(), 10, 1));
     test::simulate(world, 100);
     EXPECT_EQ(world.measure().nanCount, 0u);
     return world.stateHash();
@@ -107,7 +107,7 @@ TEST_P(VolumeFamily, HangingSolidKeepsItsVolume) {
     box.material.compressionCompliance = 1e-4f;
     box.material.volumeCompliance = volume ? 0 : 1e6f;
     World world;
-    world.setSolver({GetParam(), 10, 1});
+    world.setSolver(test::solverSettings(GetParam(), 10, 1));
     world.addSolid(box);
     test::simulate(world, 60);
     EXPECT_EQ(world.measure().nanCount, 0u);

@@ -45,7 +45,8 @@ const char* kRunHelp =
     "  --substeps S      substeps per step\n"
     "  --threads T       worker threads (0 = all cores)\n"
     "  --solver NAME     gauss-seidel | jacobi | colored-gs | multigrid\n"
-    "  --iterations K    constraint sweeps per substep\n"
+    "  --iterations K    constraint sweeps per substep (a scene schedule is rescaled so that\n"
+    "                    its most-swept family gets K)\n"
     "  --out DIR         write one OBJ per object per frame into DIR\n"
     "  --stats FILE      write run statistics as JSON\n"
     "  --render FILE     write a PNG picture of the last frame\n"
@@ -166,7 +167,10 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
   if (o.frames) scene.frames = *o.frames;
   if (o.substeps) scene.solver.substeps = *o.substeps;
   if (o.threads) scene.threads = *o.threads;
-  if (o.iterations) scene.solver.iterations = *o.iterations;
+  if (o.iterations) {
+    scene.solver.iterations = *o.iterations;
+    scene.solver.schedule = rescaleSchedule(scene.solver.schedule, *o.iterations);
+  }
   if (o.solver && !parseSolverKind(*o.solver, scene.solver.kind))
     throw UsageError("--solver: unknown solver '" + *o.solver + "'");
   checkWritable(o.statsFile, "--stats");
@@ -213,9 +217,10 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
   const Measures m = world.measure();
   const double msPerStep = stepSeconds * 1e3 / scene.frames;
 
-  nlohmann::json constraints = {{"stretch", world.constraintCount("stretch")},
-                                {"bend", world.constraintCount("bend")},
-                                {"volume", world.constraintCount("volume")}};
+  nlohmann::json constraints = nlohmann::json::object();
+  for (std::size_t f = 0; f < kConstraintFamilyCount; ++f)
+    constraints[toString(static_cast<ConstraintFamily>(f))] =
+        world.constraintCount(static_cast<ConstraintFamily>(f));
   nlohmann::json stats = {
       {"scene", scene.name},
       {"frames", scene.frames},
@@ -245,9 +250,9 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
   if (!o.renderFile.empty()) renderPng(world, o.renderFile);
 
   out << scene.name << ": " << scene.frames << " frames, " << world.particleCount()
-      << " particles, " << world.constraintCount("stretch") << " stretch constraints, "
-      << toString(scene.solver.kind) << " x" << scene.solver.iterations << ", " << world.threads()
-      << " threads\n"
+      << " particles, " << world.constraintCount(ConstraintFamily::Stretch)
+      << " stretch constraints, " << toString(scene.solver.kind) << " x" << scene.solver.iterations
+      << ", " << world.threads() << " threads\n"
       << std::setprecision(4) << "  " << msPerStep << " ms/step, max strain " << m.maxStrain
       << ", mean strain " << m.meanStrain << ", min height " << m.minHeight << ", NaN "
       << m.nanCount << ", state " << hex16(world.stateHash()) << '\n';

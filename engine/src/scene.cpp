@@ -1,5 +1,6 @@
 #include "nucleon/scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -95,6 +96,27 @@ class Reader {
       std::array<Index, N> t;
       for (std::size_t k = 0; k < N; ++k) t[k] = toIndex(list[i][k], where);
       out.push_back(t);
+    }
+    return out;
+  }
+  // [{"family": "stretch", "sweeps": 26}, {"family": "bend", "sweeps": 9}, ...]
+  Schedule schedule(const char* key) const {
+    Schedule out;
+    const Json& list = j_.at(key);
+    if (!list.is_array()) fail(at(key), "expected a list of {\"family\", \"sweeps\"}");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const Reader entry(list[i], at(key) + "[" + std::to_string(i) + "]", label_);
+      entry.allowOnly({"family", "sweeps"});
+      ScheduleEntry e;
+      const std::string family = entry.string("family", "");
+      if (!parseConstraintFamily(family, e.family))
+        entry.fail(entry.at("family"),
+                   "expected stretch, shear, bend, twist or volume, got '" + family + "'");
+      for (const ScheduleEntry& earlier : out)
+        if (earlier.family == e.family) entry.fail(entry.at("family"), "'" + family + "' repeats");
+      if (!entry.has("sweeps")) entry.fail("missing 'sweeps'");
+      e.sweeps = entry.integer("sweeps", 0, 0, 100000);
+      out.push_back(e);
     }
     return out;
   }
@@ -208,7 +230,7 @@ ObjectDef readShape(const Reader& shape, const std::string& folder) {
 }
 
 SceneObject readObject(const Reader& o, const std::string& folder) {
-  o.allowOnly({"type", "name", "shape", "material", "pins", "velocity", "offset"});
+  o.allowOnly({"type", "name", "shape", "material", "pins", "velocity", "offset", "schedule"});
   SceneObject out;
   const std::string type = o.string("type", "");
   if (type == "cloth")
@@ -232,7 +254,8 @@ SceneObject readObject(const Reader& o, const std::string& folder) {
   if (o.has("material")) {
     const Reader m = o.child("material");
     m.allowOnly({"mass", "stretch_compliance", "compression_compliance", "bend_compliance",
-                 "volume_compliance", "thickness"});
+                 "shear_compliance", "twist_compliance", "volume_compliance", "damping",
+                 "thickness"});
     Material& mat = out.def.material;
     mat.mass = static_cast<Real>(m.number("mass", mat.mass, 1e-9, 1e9));
     mat.stretchCompliance =
@@ -242,9 +265,15 @@ SceneObject readObject(const Reader& o, const std::string& folder) {
     mat.thickness = static_cast<Real>(m.number("thickness", mat.thickness, 0, 1e3));
     mat.bending = m.has("bend_compliance");
     mat.bendCompliance = static_cast<Real>(m.number("bend_compliance", 0, 0, 1e6));
+    mat.shear = m.has("shear_compliance");
+    mat.shearCompliance = static_cast<Real>(m.number("shear_compliance", 0, 0, 1e6));
+    mat.twist = m.has("twist_compliance");
+    mat.twistCompliance = static_cast<Real>(m.number("twist_compliance", 0, 0, 1e6));
     mat.volumeCompliance =
         static_cast<Real>(m.number("volume_compliance", mat.volumeCompliance, 0, 1e6));
+    mat.damping = static_cast<Real>(m.number("damping", mat.damping, 0, 1e3));
   }
+  if (o.has("schedule")) out.def.schedule = o.schedule("schedule");
   if (o.has("pins")) {
     const Json& pins = o.raw("pins");
     if (!pins.is_array()) o.fail(o.at("pins"), "expected a list of vertex indices");
@@ -296,7 +325,7 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
   scene.gravity = top.vec3("gravity", scene.gravity);
   if (top.has("solver")) {
     const Reader s = top.child("solver");
-    s.allowOnly({"type", "iterations", "substeps", "relaxation"});
+    s.allowOnly({"type", "iterations", "substeps", "relaxation", "schedule"});
     const std::string type = s.string("type", toString(scene.solver.kind));
     if (!parseSolverKind(type, scene.solver.kind))
       s.fail(s.at("type"), "unknown solver '" + type + "'");
@@ -304,6 +333,14 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     scene.solver.substeps = s.integer("substeps", scene.solver.substeps, 1, 10000);
     scene.solver.relaxation =
         static_cast<Real>(s.number("relaxation", scene.solver.relaxation, 0.01, 1.99));
+    if (s.has("schedule")) {
+      if (s.has("iterations"))
+        s.fail("give either 'iterations' (every family) or 'schedule' (per family), not both");
+      scene.solver.schedule = s.schedule("schedule");
+      scene.solver.iterations = 0;
+      for (const ScheduleEntry& e : scene.solver.schedule)
+        scene.solver.iterations = std::max(scene.solver.iterations, e.sweeps);
+    }
   }
   if (!top.has("objects") || !j.at("objects").is_array() || j.at("objects").empty())
     top.fail("objects", "expected a non-empty list of objects");

@@ -3,9 +3,8 @@
 #include <chrono>
 
 #include "engine/src/world_state.h"
-#include "systems/constraint_sweeps.h"
 #include "systems/integrate.h"
-#include "systems/stretch_solve.h"
+#include "systems/solve_constraints.h"
 
 namespace nucleon {
 namespace {
@@ -33,28 +32,8 @@ StepGraph::StepGraph(WorldState& state)
       solve_(graph_,
              [this](tbb::flow::continue_msg) {
                timed(state_.stageTimes.solve, [&] {
-                 for (auto* lambda :
-                      {&state_.stretch.lambda, &state_.bend.lambda, &state_.volume.lambda})
-                   std::fill(lambda->begin(), lambda->end(), Real(0));
-                 const SolverSettings& solver = state_.solver;
-                 for (int sweep = 0; sweep < solver.iterations; ++sweep) {
-                   switch (solver.kind) {
-                     case SolverKind::Jacobi:
-                       solveStretchJacobi(state_.stretch, state_.particles, h_, solver.relaxation);
-                       break;
-                     case SolverKind::ColoredGaussSeidel:
-                       solveStretchColored(state_.stretch, state_.particles, h_);
-                       break;
-                     default:
-                       solveStretchGaussSeidel(state_.stretch, state_.particles, h_);
-                       break;
-                   }
-                   // Interleaved: every sweep visits each family once, stretch first.
-                   solveSweep<DihedralKernel>(solver.kind, state_.bend, state_.particles, h_,
-                                              solver.relaxation);
-                   solveSweep<VolumeKernel>(solver.kind, state_.volume, state_.particles, h_,
-                                            solver.relaxation);
-                 }
+                 solveConstraints(state_.constraints, state_.particles, state_.plan,
+                                  state_.solver.kind, h_, state_.solver.relaxation);
                });
              }),
       update_(graph_, [this](tbb::flow::continue_msg) {

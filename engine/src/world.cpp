@@ -1,6 +1,7 @@
 #include "nucleon/world.h"
 
 #include <cmath>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -8,9 +9,10 @@
 
 #include "engine/src/step_graph.h"
 #include "engine/src/world_state.h"
+#include "systems/build_constraints.h"
 #include "systems/constraint_graph_build.h"
-#include "systems/constraint_kernels.h"
 #include "systems/measures.h"
+#include "systems/sweep_schedule.h"
 
 namespace nucleon {
 
@@ -54,6 +56,31 @@ bool parseSolverKind(const std::string& name, SolverKind& out) {
   return false;
 }
 
+const char* toString(ConstraintFamily family) {
+  switch (family) {
+    case ConstraintFamily::Stretch:
+      return "stretch";
+    case ConstraintFamily::Shear:
+      return "shear";
+    case ConstraintFamily::Bend:
+      return "bend";
+    case ConstraintFamily::Twist:
+      return "twist";
+    case ConstraintFamily::Volume:
+      return "volume";
+  }
+  return "?";
+}
+
+bool parseConstraintFamily(const std::string& name, ConstraintFamily& out) {
+  for (std::size_t f = 0; f < kConstraintFamilyCount; ++f)
+    if (name == toString(static_cast<ConstraintFamily>(f))) {
+      out = static_cast<ConstraintFamily>(f);
+      return true;
+    }
+  return false;
+}
+
 World::Impl::~Impl() = default;
 
 namespace {
@@ -81,6 +108,13 @@ void validateCommon(const ObjectDef& def, const std::string& what) {
           what + ": bend compliance must be finite and non-negative");
   require(std::isfinite(m.volumeCompliance) && m.volumeCompliance >= 0,
           what + ": volume compliance must be finite and non-negative");
+  require(std::isfinite(m.shearCompliance) && m.shearCompliance >= 0,
+          what + ": shear compliance must be finite and non-negative");
+  require(std::isfinite(m.twistCompliance) && m.twistCompliance >= 0,
+          what + ": twist compliance must be finite and non-negative");
+  require(std::isfinite(m.damping) && m.damping >= 0,
+          what + ": damping must be finite and non-negative");
+  validateSchedule(def.schedule, what + " schedule");
   require(std::isfinite(m.thickness) && m.thickness >= 0,
           what + ": thickness must be finite and non-negative");
   require(finite(def.velocity), what + ": velocity must be finite");
@@ -216,42 +250,8 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
   if (record.closed)
     record.restVolume = enclosedVolume(record.surface, particles.x, record.firstParticle);
 
-  record.stretchRange[0] = static_cast<Index>(s.stretch.size());
-  if (!kinematic)
-    for (const auto& e : c.edges.vertices) {
-      const Real rest = (def.vertices[e[0]] - def.vertices[e[1]]).norm();
-      s.stretch.append(first + e[0], first + e[1], rest, def.material.stretchCompliance,
-                       def.material.compressionCompliance);
-    }
-  record.stretchRange[1] = static_cast<Index>(s.stretch.size());
-
-  // Hinges: for each interior edge (a, b), the triangle that runs a → b gives x2 and the one that
-  // runs b → a gives x3, matching DihedralKernel's (x0, x1, x2), (x1, x0, x3).
-  if (kind == ObjectKind::Cloth && def.material.bending)
-    for (Index e = 0; e < c.edges.size(); ++e) {
-      const auto parents = c.edges.parentsOf(e);
-      if (parents.size() != 2) continue;
-      const auto [a, b] = c.edges.vertices[e];
-      auto opposite = [&](Index t) {
-        for (Index v : c.triangles.vertices[t])
-          if (v != a && v != b) return v;
-        return a;
-      };
-      const bool firstForward = parents[0].sign > 0;
-      const Index x2 = opposite(parents[firstForward ? 0 : 1].face);
-      const Index x3 = opposite(parents[firstForward ? 1 : 0].face);
-      const std::array<Index, 4> hinge = {first + a, first + b, first + x2, first + x3};
-      Points<4> x, grad;
-      for (int k = 0; k < 4; ++k) x[k] = def.vertices[hinge[k] - first];
-      s.bend.append(hinge, DihedralKernel::value(x, grad), def.material.bendCompliance);
-    }
-  if (kind == ObjectKind::Solid)
-    for (const auto& t : c.tets.vertices) {
-      Points<4> x, grad;
-      for (int k = 0; k < 4; ++k) x[k] = def.vertices[t[k]];
-      s.volume.append({first + t[0], first + t[1], first + t[2], first + t[3]},
-                      VolumeKernel::value(x, grad), def.material.volumeCompliance);
-    }
+  appendObjectConstraints(s.constraints, kind, c, def.vertices, first, def.material);
+  record.schedule = def.schedule;
 
   s.objects.push_back(std::move(record));
   s.topologyDirty = true;
@@ -288,9 +288,11 @@ void World::setSolver(const SolverSettings& settings) {
   require(settings.substeps >= 1 && settings.substeps <= 10000, "substeps must be in [1, 10000]");
   require(std::isfinite(settings.relaxation) && settings.relaxation > 0 && settings.relaxation < 2,
           "relaxation must be in (0, 2)");
+  validateSchedule(settings.schedule, "solver schedule");
   require(settings.kind != SolverKind::Multigrid,
           std::string("solver '") + toString(settings.kind) + "' is not available in this build");
   impl_->state.solver = settings;
+  impl_->state.topologyDirty = true;  // the sweep plan follows the schedule
 }
 const SolverSettings& World::solver() const {
   return impl_->state.solver;
@@ -313,16 +315,21 @@ void World::step(double dt) {
   Impl& impl = *impl_;
   WorldState& s = impl.state;
   if (s.topologyDirty) {  // derived tables, rebuilt outside the step so a step never allocates
-    const std::span<const std::array<Index, 2>> pairs = s.stretch.particles;
-    s.stretch.incidence = buildIncidence(pairs, s.particles.size());
-    s.stretch.coloring = colorConstraints(pairs, s.particles.size());
-    s.stretch.correction.assign(2 * s.stretch.size(), Vec3::Zero());
-    for (ConstraintPool<4>* pool : {&s.bend, &s.volume}) {
-      const std::span<const std::array<Index, 4>> tuples = pool->particles;
-      pool->incidence = buildIncidence(tuples, s.particles.size());
-      pool->coloring = colorConstraints(tuples, s.particles.size());
-      pool->correction.assign(4 * pool->size(), Vec3::Zero());
-    }
+    s.constraints.forEach([&](auto& pool) {
+      constexpr std::size_t n = std::remove_reference_t<decltype(pool)>::kArity;
+      const std::span<const std::array<Index, n>> tuples = pool.particles;
+      pool.coloring = colorConstraints(tuples, s.particles.size());
+      // Colored Gauss–Seidel stores the pool in color order, so that a color is contiguous in
+      // memory and its sweep streams through the constraint columns. The other backends keep
+      // the mesh order, whose neighbouring constraints share particles (better particle reuse).
+      if (s.solver.kind == SolverKind::ColoredGaussSeidel) {
+        pool.permute(pool.coloring.order);
+        std::iota(pool.coloring.order.begin(), pool.coloring.order.end(), Index(0));
+      }
+      pool.incidence = buildIncidence(tuples, s.particles.size());
+      pool.correction.assign(n * pool.size(), Vec3::Zero());
+    });
+    s.plan = planSweeps(s.solver, s.objects);
     s.topologyDirty = false;
   }
   if (!impl.arena) {
@@ -387,17 +394,14 @@ Real World::thickness(ObjectId id) const {
   return lookup(*impl_, id).material.thickness;
 }
 
-std::size_t World::constraintCount(const std::string& family) const {
-  if (family == "stretch") return impl_->state.stretch.size();
-  if (family == "bend") return impl_->state.bend.size();
-  if (family == "volume") return impl_->state.volume.size();
-  return 0;
+std::size_t World::constraintCount(ConstraintFamily family) const {
+  return impl_->state.constraints.count(family);
 }
 
 Measures World::measure() const {
   const WorldState& s = impl_->state;
   Measures m;
-  const StrainStats strain = measureStrain(s.stretch, s.particles.x);
+  const StrainStats strain = measureStrain(s.constraints.stretch, s.particles.x);
   m.maxStrain = strain.max;
   m.meanStrain = strain.mean;
   m.kineticEnergy = kineticEnergy(s.particles);

@@ -8,10 +8,10 @@
 
 #include <tbb/task_arena.h>
 
-#include "components/constraint_pool.h"
+#include "components/constraint_pools.h"
 #include "components/objects.h"
 #include "components/particles.h"
-#include "components/stretch_constraints.h"
+#include "components/sweep_plan.h"
 #include "nucleon/world.h"
 
 namespace nucleon {
@@ -29,13 +29,12 @@ struct StageTimes {
 
 struct WorldState {
   ParticlePool particles;
-  StretchConstraints stretch;
-  BendConstraints bend;
-  VolumeConstraints volume;
+  ConstraintPools constraints;
   std::vector<ObjectRecord> objects;
   Vec3 gravity = Vec3(0, Real(-9.81), 0);
   SolverSettings solver;
-  bool topologyDirty = true;            // constraint incidence and coloring need rebuilding
+  SweepPlan plan;                       // from solver.schedule and the objects' schedules
+  bool topologyDirty = true;            // incidence, coloring and plan need rebuilding
   std::size_t nonFiniteRecoveries = 0;  // particles reset by updateState since creation
   StageTimes stageTimes;
 };

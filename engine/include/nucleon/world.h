@@ -30,6 +30,28 @@ const char* toString(SolverKind kind);
 // Parses "gauss-seidel", "jacobi", "colored-gs", "multigrid"; returns false on anything else.
 bool parseSolverKind(const std::string& name, SolverKind& out);
 
+// The constraint families a schedule names (DESIGN.md §2): stretch (type 1, edges), shear
+// (type 2 at triangle corners), bend (type 3 hinges of cloth and type 2 angles of curves), twist
+// (type 3 on four consecutive curve points), volume (tetrahedra).
+enum class ConstraintFamily { Stretch, Shear, Bend, Twist, Volume };
+constexpr std::size_t kConstraintFamilyCount = 5;
+const char* toString(ConstraintFamily family);
+// Parses "stretch", "shear", "bend", "twist", "volume"; returns false on anything else.
+bool parseConstraintFamily(const std::string& name, ConstraintFamily& out);
+
+// How many sweeps per substep each family gets, and the order in which they interleave: the
+// families are visited in list order within a round, and a family with n sweeps runs in n of the
+// R rounds of a substep (R = the largest count), spread evenly. {stretch 4, bend 2} solves
+// stretch, bend, stretch, stretch, bend, stretch. Families that the list leaves out are not solved.
+struct ScheduleEntry {
+  ConstraintFamily family = ConstraintFamily::Stretch;
+  int sweeps = 1;
+};
+using Schedule = std::vector<ScheduleEntry>;
+// The same schedule with its largest count set to `sweeps` and the others scaled in proportion
+// (rounded, and at least 1 where they were non-zero).
+Schedule rescaleSchedule(const Schedule& schedule, int sweeps);
+
 // Generational handle of an object. index1 is 1-based so that a value-initialised id is null.
 struct ObjectId {
   std::uint32_t index1 = 0;
@@ -44,10 +66,22 @@ struct Material {
   // XPBD compliance (inverse stiffness, m/N) of the stretch constraints; 0 is inextensible.
   Real stretchCompliance = 0;
   Real compressionCompliance = 0;
-  // Type 3 (dihedral) bending of cloth across every interior edge, off by default; its
-  // compliance is in rad/(N·m).
+  // Bending, off by default: for cloth, type 3 (dihedral) across every interior edge; for ropes,
+  // type 2 (angle) at every vertex where two segments meet. Compliance in rad/(N·m).
   bool bending = false;
   Real bendCompliance = 0;
+  // Shear of cloth, off by default: type 2 (angle) at each corner of each triangle, in rad/(N·m).
+  // Stretch on all three edges already holds a triangle's shape; shear matters when the
+  // stretch is soft.
+  bool shear = false;
+  Real shearCompliance = 0;
+  // Twist of ropes, off by default: type 3 (dihedral) of each four consecutive points whose rest
+  // shape is not straight (a straight run has no defined dihedral), in rad/(N·m).
+  bool twist = false;
+  Real twistCompliance = 0;
+  // Stiffness-proportional damping time τ (s) of every constraint of the object: the constraint
+  // force is −(C + τ dC/dt)/α. 0 = undamped. With α = 0 it makes C relax as e^(−t/τ).
+  Real damping = 0;
   // Volume constraints of a solid's tetrahedra (m³/N); 0 keeps every tet's volume.
   Real volumeCompliance = 0;
   // Collision thickness in m: radius of points and edges, half-width of triangle slabs.
@@ -64,15 +98,21 @@ struct ObjectDef {
   Material material;
   std::vector<Index> pins;       // vertices held in place (inverse mass 0)
   Vec3 velocity = Vec3::Zero();  // initial velocity; for a kinematic collider, its constant motion
+  // Sweep counts for this object's constraints; empty = the world's schedule. The interleaving
+  // order is always the world's.
+  Schedule schedule;
 };
 
 struct SolverSettings {
   SolverKind kind = SolverKind::GaussSeidel;
-  int iterations = 10;  // constraint sweeps per substep
+  int iterations = 10;  // sweeps per substep of every family, when `schedule` is empty
   int substeps = 1;     // substeps per step(dt)
   // Jacobi relaxation ω in (0, 2): each particle moves by ω times the average of its
   // constraints' corrections. Ignored by the Gauss–Seidel backends.
   Real relaxation = 1;
+  // Per-family sweep counts and order; empty = every family `iterations` times, in the order
+  // stretch, shear, bend, twist, volume.
+  Schedule schedule;
 };
 
 // Quality measures of the current state (DESIGN.md §7).
@@ -132,7 +172,7 @@ class World {
   std::span<const std::array<Index, 2>> curveEdges(ObjectId id) const;  // a rope's segments
   Real thickness(ObjectId id) const;
 
-  std::size_t constraintCount(const std::string& family) const;  // "stretch", ...
+  std::size_t constraintCount(ConstraintFamily family) const;
   Measures measure() const;
   // 64-bit FNV-1a hash of every particle's position and velocity bytes.
   std::uint64_t stateHash() const;

@@ -1,0 +1,23 @@
+// Creates an object's constraints from its simplicial complex and rest shape: which simplices a
+// family acts on, with rest values measured by the family's own kernel.
+#pragma once
+
+#include <span>
+
+#include "components/constraint_pools.h"
+#include "components/simplicial_complex.h"
+#include "nucleon/world.h"
+
+namespace nucleon {
+
+// Appends the constraints of one object whose particles start at `first`:
+//  - stretch on every edge (not for colliders);
+//  - cloth: shear at each triangle corner and bend on each interior edge's hinge, if enabled;
+//  - rope: bend at each pair of segments sharing a vertex, twist on each run of three segments
+//    whose rest shape is not straight, if enabled;
+//  - solid: volume on each tetrahedron.
+void appendObjectConstraints(ConstraintPools& pools, ObjectKind kind,
+                             const SimplicialComplex& complex, std::span<const Vec3> rest,
+                             Index first, const Material& material);
+
+}  // namespace nucleon

@@ -1,0 +1,22 @@
+// Turns schedules (sweep counts per family, world-wide and per object) into the ordered list of
+// sweeps a substep runs.
+#pragma once
+
+#include <span>
+
+#include "components/objects.h"
+#include "components/sweep_plan.h"
+
+namespace nucleon {
+
+// Round r of R runs a family with n sweeps when ⌊(r+1)n/R⌋ > ⌊rn/R⌋ (Bresenham spacing), so
+// families interleave evenly instead of running one after another. Families are visited in the
+// world schedule's order within a round; families only an object's schedule names come after,
+// in the default order.
+SweepPlan planSweeps(const SolverSettings& solver, std::span<const ObjectRecord> objects);
+
+// Throws std::invalid_argument naming `what` if a schedule repeats a family or has a count
+// outside [0, 100000].
+void validateSchedule(const Schedule& schedule, const std::string& what);
+
+}  // namespace nucleon
