@@ -41,14 +41,19 @@ NUCLEON_KERNEL bool takesPart(const ConstraintPool<N>& pool, std::size_t c,
 }
 
 // Computes constraint c's correction from p (the positions being solved); returns Δλ.
+// With `splitCounts` (Jacobi), particle i's inverse mass is multiplied by the number of the
+// family's constraints that share it (mass splitting): see solveJacobi.
 template <class Kernel, std::size_t N>
 NUCLEON_KERNEL Real correct(const ConstraintPool<N>& pool, std::size_t c, const Vec3* p,
-                            const ParticlePool& ps, Real invH, Points<N>& dx) {
+                            const ParticlePool& ps, Real invH, Points<N>& dx,
+                            const Index* splitCounts = nullptr) {
   Points<N> x, start;
   std::array<Real, N> weights;
   for (std::size_t k = 0; k < N; ++k) {
-    x[k] = p[pool.particles[c][k]];
-    weights[k] = ps.w[pool.particles[c][k]];
+    const Index i = pool.particles[c][k];
+    x[k] = p[i];
+    weights[k] = ps.w[i];
+    if (splitCounts) weights[k] *= Real(splitCounts[i + 1] - splitCounts[i]);
   }
   const Real invH2 = invH * invH;
   ProjectionTerms terms;
@@ -81,17 +86,26 @@ void solveGaussSeidel(ConstraintPool<N>& pool, const SweepContext& context) {
       sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH);
 }
 
+// Jacobi with mass splitting (Tonge et al. 2012): each constraint sees particle i with n_i times
+// its inverse mass (n_i = the family's constraints on i), as if i's mass were shared equally
+// among them; the gather then averages the copies, so that particle i moves by
+//   Δx_i = ω Σ_c w_i ∇_i C_c Δλ_c,
+// exactly the displacement that the multipliers account for. λ_c therefore accumulates ω Δλ_c,
+// and the compliance term −α̃λ stays consistent with the positions: with plain averaging,
+// particles move n_i times less than λ says, and a soft material comes out softer.
 template <class Kernel, std::size_t N>
 void solveJacobi(ConstraintPool<N>& pool, const SweepContext& context) {
   const ParticlePool& ps = context.particles;
   const Vec3* p = ps.p.data();
-  const Real invH = 1 / context.h;
+  const Real invH = 1 / context.h, omega = context.relaxation;
+  const Index* splitCounts = pool.incidence.offset.data();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pool.size(), sweep_detail::kGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       Points<N> dx;
                       for (std::size_t c = r.begin(); c != r.end(); ++c) {
                         if (sweep_detail::takesPart(pool, c, context)) {
-                          pool.lambda[c] += sweep_detail::correct<Kernel>(pool, c, p, ps, invH, dx);
+                          pool.lambda[c] += omega * sweep_detail::correct<Kernel>(
+                                                        pool, c, p, ps, invH, dx, splitCounts);
                         } else {
                           for (auto& d : dx) d.setZero();
                         }

@@ -42,7 +42,7 @@ bool parseConstraintFamily(const std::string& name, ConstraintFamily& out);
 // How many sweeps per substep each family gets, and the order in which they interleave: the
 // families are visited in list order within a round, and a family with n sweeps runs in n of the
 // R rounds of a substep (R = the largest count), spread evenly. {stretch 4, bend 2} solves
-// stretch, bend, stretch, stretch, bend, stretch. Families that the list leaves out are not solved.
+// stretch, stretch, bend, stretch, stretch, bend. Families the list leaves out are not solved.
 struct ScheduleEntry {
   ConstraintFamily family = ConstraintFamily::Stretch;
   int sweeps = 1;
