@@ -14,6 +14,7 @@ namespace nucleon {
 struct SweepOp {
   ConstraintFamily family = ConstraintFamily::Stretch;
   std::int32_t objectRunsOffset = -1;  // into SweepPlan::objectRuns; −1 = every object takes part
+  bool endsRound = false;              // the last sweep of its round: contacts are projected next
 };
 
 struct SweepPlan {

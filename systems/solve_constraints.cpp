@@ -3,11 +3,12 @@
 #include <algorithm>
 
 #include "systems/constraint_sweeps.h"
+#include "systems/ground_contact.h"
 
 namespace nucleon {
 
 void solveConstraints(ConstraintPools& pools, ParticlePool& particles, const SweepPlan& plan,
-                      SolverKind kind, Real h, Real relaxation) {
+                      const GroundPlane& ground, SolverKind kind, Real h, Real relaxation) {
   pools.forEach([](auto& pool) { std::fill(pool.lambda.begin(), pool.lambda.end(), Real(0)); });
   SweepContext context{particles, h, relaxation, nullptr};
   for (const SweepOp& op : plan.ops) {
@@ -31,7 +32,9 @@ void solveConstraints(ConstraintPools& pools, ParticlePool& particles, const Swe
         solveSweep<VolumeKernel>(kind, pools.volume, context);
         break;
     }
+    if (op.endsRound && ground.enabled) projectGround(particles, ground);
   }
+  if (plan.ops.empty() && ground.enabled) projectGround(particles, ground);
 }
 
 }  // namespace nucleon

@@ -7,8 +7,9 @@
 
 namespace nucleon {
 
-// Resets every multiplier (XPBD's λ lives for one substep) and runs plan.ops on particles.p.
+// Resets every multiplier (XPBD's λ lives for one substep) and runs plan.ops on particles.p,
+// projecting ground contacts after each round (and once when the plan has no sweeps).
 void solveConstraints(ConstraintPools& pools, ParticlePool& particles, const SweepPlan& plan,
-                      SolverKind kind, Real h, Real relaxation);
+                      const GroundPlane& ground, SolverKind kind, Real h, Real relaxation);
 
 }  // namespace nucleon

@@ -79,7 +79,8 @@ SweepPlan planSweeps(const SolverSettings& solver, std::span<const ObjectRecord>
   for (const Counts& c : perObject)
     plan.rounds = std::max(plan.rounds, *std::max_element(c.begin(), c.end()));
   std::vector<std::uint8_t> runs(objects.size());
-  for (int r = 0; r < plan.rounds; ++r)
+  for (int r = 0; r < plan.rounds; ++r) {
+    const std::size_t roundStart = plan.ops.size();
     for (ConstraintFamily f : order) {
       const auto fi = static_cast<std::size_t>(f);
       if (!anyOwn) {
@@ -104,6 +105,8 @@ SweepPlan planSweeps(const SolverSettings& solver, std::span<const ObjectRecord>
         plan.objectRuns.insert(plan.objectRuns.end(), runs.begin(), runs.end());
       }
     }
+    if (plan.ops.size() > roundStart) plan.ops.back().endsRound = true;
+  }
   return plan;
 }
 

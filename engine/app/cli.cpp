@@ -202,7 +202,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
                         {"ms", seconds * 1e3},
                         {"max_strain", m.maxStrain},
                         {"intersections", nullptr},
-                        {"contacts", 0}});
+                        {"contacts", m.contacts}});
     if (!o.outDir.empty())
       for (std::size_t i = 0; i < world.objectCount(); ++i) {
         const ObjectId id = world.objectAt(i);
@@ -221,6 +221,10 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
   for (std::size_t f = 0; f < kConstraintFamilyCount; ++f)
     constraints[toString(static_cast<ConstraintFamily>(f))] =
         world.constraintCount(static_cast<ConstraintFamily>(f));
+  nlohmann::json sweeps = nlohmann::json::object();  // per substep, from the schedule
+  for (std::size_t f = 0; f < kConstraintFamilyCount; ++f)
+    sweeps[toString(static_cast<ConstraintFamily>(f))] =
+        world.sweepsPerSubstep(static_cast<ConstraintFamily>(f));
   nlohmann::json stats = {
       {"scene", scene.name},
       {"frames", scene.frames},
@@ -231,11 +235,13 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
       {"solver", toString(scene.solver.kind)},
       {"particles", world.particleCount()},
       {"constraints", constraints},
+      {"sweeps", sweeps},
       {"wall_s", wall},
       {"ms_per_step", msPerStep},
       {"max_strain", m.maxStrain},
       {"mean_strain", m.meanStrain},
       {"intersections", nullptr},
+      {"contacts", m.contacts},
       {"nan_count", m.nanCount},
       {"min_height", m.minHeight},
       {"volume_ratio", m.volumeRatio >= 0 ? nlohmann::json(m.volumeRatio) : nlohmann::json()},

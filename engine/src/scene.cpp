@@ -313,8 +313,8 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     throw SceneError(label + ": malformed JSON: " + what);
   }
   const Reader top(j, "", label);
-  top.allowOnly(
-      {"name", "description", "frames", "fps", "threads", "gravity", "solver", "objects"});
+  top.allowOnly({"name", "description", "frames", "fps", "threads", "gravity", "ground", "solver",
+                 "objects"});
   Scene scene;
   scene.path = label;
   scene.name = top.string("name", fs::path(label).stem().string());
@@ -323,6 +323,17 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
   scene.fps = top.number("fps", scene.fps, 1, 100000);
   scene.threads = top.integer("threads", 0, 0, 4096);
   scene.gravity = top.vec3("gravity", scene.gravity);
+  if (top.has("ground")) {
+    const Reader g = top.child("ground");
+    g.allowOnly({"height", "thickness", "friction", "static_friction"});
+    scene.ground.enabled = true;
+    scene.ground.height = static_cast<Real>(g.number("height", 0, -1e6, 1e6));
+    scene.ground.thickness =
+        static_cast<Real>(g.number("thickness", scene.ground.thickness, 0, 10));
+    scene.ground.friction = static_cast<Real>(g.number("friction", scene.ground.friction, 0, 10));
+    scene.ground.staticFriction = static_cast<Real>(g.number(
+        "static_friction", std::max(scene.ground.staticFriction, scene.ground.friction), 0, 10));
+  }
   if (top.has("solver")) {
     const Reader s = top.child("solver");
     s.allowOnly({"type", "iterations", "substeps", "relaxation", "schedule"});
@@ -364,6 +375,7 @@ World buildWorld(const Scene& scene) {
   World world;
   try {
     world.setGravity(scene.gravity);
+    world.setGround(scene.ground);
     world.setSolver(scene.solver);
     world.setThreads(scene.threads);
     for (const SceneObject& o : scene.objects) {

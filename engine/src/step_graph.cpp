@@ -32,7 +32,7 @@ StepGraph::StepGraph(WorldState& state)
       solve_(graph_,
              [this](tbb::flow::continue_msg) {
                timed(state_.stageTimes.solve, [&] {
-                 solveConstraints(state_.constraints, state_.particles, state_.plan,
+                 solveConstraints(state_.constraints, state_.particles, state_.plan, state_.ground,
                                   state_.solver.kind, h_, state_.solver.relaxation);
                });
              }),

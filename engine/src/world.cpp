@@ -11,6 +11,7 @@
 #include "engine/src/world_state.h"
 #include "systems/build_constraints.h"
 #include "systems/constraint_graph_build.h"
+#include "systems/ground_contact.h"
 #include "systems/measures.h"
 #include "systems/sweep_schedule.h"
 
@@ -282,6 +283,20 @@ Vec3 World::gravity() const {
   return impl_->state.gravity;
 }
 
+void World::setGround(const GroundPlane& ground) {
+  require(std::isfinite(ground.height) && std::abs(ground.height) < 1e9,
+          "ground height must be finite");
+  require(std::isfinite(ground.thickness) && ground.thickness >= 0,
+          "ground thickness must be finite and non-negative");
+  require(std::isfinite(ground.friction) && ground.friction >= 0 &&
+              std::isfinite(ground.staticFriction) && ground.staticFriction >= 0,
+          "ground friction must be finite and non-negative");
+  impl_->state.ground = ground;
+}
+const GroundPlane& World::ground() const {
+  return impl_->state.ground;
+}
+
 void World::setSolver(const SolverSettings& settings) {
   require(settings.iterations >= 0 && settings.iterations <= 100000,
           "iterations must be in [0, 100000]");
@@ -398,6 +413,12 @@ std::size_t World::constraintCount(ConstraintFamily family) const {
   return impl_->state.constraints.count(family);
 }
 
+int World::sweepsPerSubstep(ConstraintFamily family) const {
+  const WorldState& s = impl_->state;
+  const SweepPlan plan = s.topologyDirty ? planSweeps(s.solver, s.objects) : s.plan;
+  return plan.sweepsOfFamily[static_cast<std::size_t>(family)];
+}
+
 Measures World::measure() const {
   const WorldState& s = impl_->state;
   Measures m;
@@ -418,6 +439,8 @@ Measures World::measure() const {
       now += enclosedVolume(o.surface, s.particles.x, o.firstParticle);
     }
   m.volumeRatio = rest != 0 ? now / rest : -1.0;
+  if (s.ground.enabled)  // touching: within 1 mm of the contact surface
+    m.contacts = countGroundContacts(s.particles, s.ground, Real(1e-3));
   return m;
 }
 

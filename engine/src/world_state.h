@@ -33,6 +33,7 @@ struct WorldState {
   std::vector<ObjectRecord> objects;
   Vec3 gravity = Vec3(0, Real(-9.81), 0);
   SolverSettings solver;
+  GroundPlane ground;
   SweepPlan plan;                       // from solver.schedule and the objects' schedules
   bool topologyDirty = true;            // incidence, coloring and plan need rebuilding
   std::size_t nonFiniteRecoveries = 0;  // particles reset by updateState since creation

@@ -29,6 +29,7 @@ struct Scene {
   double fps = 60;
   int threads = 0;  // 0 = all cores
   Vec3 gravity = Vec3(0, Real(-9.81), 0);
+  GroundPlane ground;  // enabled when the scene has a "ground" entry
   SolverSettings solver;
   std::vector<SceneObject> objects;
 };

@@ -115,6 +115,16 @@ struct SolverSettings {
   Schedule schedule;
 };
 
+// A horizontal ground plane (y up). Particles stay `thickness` above it; friction is Coulomb's
+// (μ_k sliding, μ_s sticking), applied to each substep's motion.
+struct GroundPlane {
+  bool enabled = false;
+  Real height = 0;
+  Real thickness = Real(0.005);
+  Real friction = Real(0.5);
+  Real staticFriction = Real(0.6);
+};
+
 // Quality measures of the current state (DESIGN.md §7).
 struct Measures {
   double maxStrain = 0;   // max |L/L0 − 1| over stretch constraints
@@ -124,6 +134,7 @@ struct Measures {
   std::size_t nanCount = 0;    // non-finite position or velocity components
   double minHeight = 0;        // lowest particle coordinate along −gravity (y if gravity is 0)
   double volumeRatio = -1;     // current / rest volume of closed objects; −1 if there are none
+  std::size_t contacts = 0;    // particles touching the ground plane
 };
 
 class World {
@@ -146,6 +157,8 @@ class World {
 
   void setGravity(const Vec3& g);
   Vec3 gravity() const;
+  void setGround(const GroundPlane& ground);  // throws std::invalid_argument on non-finite values
+  const GroundPlane& ground() const;
   void setSolver(const SolverSettings& settings);
   const SolverSettings& solver() const;
   // Worker threads for step(); 0 = all cores. Results of the Gauss–Seidel solver do not depend on
@@ -173,6 +186,8 @@ class World {
   Real thickness(ObjectId id) const;
 
   std::size_t constraintCount(ConstraintFamily family) const;
+  // Sweeps of a family in each substep under the current schedule (most of any object's).
+  int sweepsPerSubstep(ConstraintFamily family) const;
   Measures measure() const;
   // 64-bit FNV-1a hash of every particle's position and velocity bytes.
   std::uint64_t stateHash() const;
