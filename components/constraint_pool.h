@@ -65,5 +65,6 @@ using StretchConstraints = ConstraintPool<2>;   // type 1: distance between two 
 using AngleConstraints = ConstraintPool<3>;     // type 2: shear of triangles, bend of curves
 using DihedralConstraints = ConstraintPool<4>;  // type 3: bend of cloth, twist of curves
 using VolumeConstraints = ConstraintPool<4>;    // signed volume of a tetrahedron
+using TetherConstraints = ConstraintPool<2>;    // long-range attachment: distance ≤ rest
 
 }  // namespace nucleon

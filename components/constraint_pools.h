@@ -12,6 +12,7 @@ struct ConstraintPools {
   DihedralConstraints bend;    // type 3 on the hinges of cloth        }
   DihedralConstraints twist;   // type 3 on four consecutive rope points
   VolumeConstraints volume;    // tetrahedra of solids
+  TetherConstraints tether;    // free particle to its nearest pin, unilateral
 
   template <class F>
   void forEach(F&& f) {
@@ -21,6 +22,7 @@ struct ConstraintPools {
     f(bend);
     f(twist);
     f(volume);
+    f(tether);
   }
   std::size_t count(ConstraintFamily family) const {
     switch (family) {
@@ -34,6 +36,8 @@ struct ConstraintPools {
         return twist.size();
       case ConstraintFamily::Volume:
         return volume.size();
+      case ConstraintFamily::Tether:
+        return tether.size();
     }
     return 0;
   }

@@ -1,5 +1,11 @@
 #include "systems/build_constraints.h"
 
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <queue>
+#include <vector>
+
 #include "systems/constraint_kernels.h"
 
 namespace nucleon {
@@ -87,11 +93,47 @@ void appendRopeConstraints(ConstraintPools& pools, const SimplicialComplex& c,
     }
 }
 
+// Path lengths along the edges from the nearest pin (Dijkstra from all pins at once). A path
+// along edges is never shorter than the geodesic, so the limit never holds a vertex closer than
+// the rest shape allows; on a triangulated grid it exceeds the straight distance by at most ~8%.
+void appendTethers(ConstraintPools& pools, const SimplicialComplex& c, std::span<const Vec3> rest,
+                   std::span<const Index> pins, Index first) {
+  const std::size_t n = c.vertexCount();
+  std::vector<double> distance(n, std::numeric_limits<double>::infinity());
+  std::vector<Index> source(n, 0);
+  using Entry = std::pair<double, Index>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
+  for (Index pin : pins) {
+    distance[pin] = 0;
+    source[pin] = pin;
+    queue.push({0.0, pin});
+  }
+  while (!queue.empty()) {
+    const auto [d, v] = queue.top();
+    queue.pop();
+    if (d > distance[v]) continue;
+    for (const SignedFace& e : c.points.parentsOf(v)) {
+      const Index u = otherEnd(c.edges.vertices[e.face], v);
+      const double du = d + (rest[u] - rest[v]).cast<double>().norm();
+      if (du < distance[u]) {
+        distance[u] = du;
+        source[u] = source[v];
+        queue.push({du, u});
+      }
+    }
+  }
+  std::vector<bool> pinned(n, false);
+  for (Index pin : pins) pinned[pin] = true;
+  for (Index v = 0; v < n; ++v)
+    if (!pinned[v] && std::isfinite(distance[v]))
+      pools.tether.append({first + v, first + source[v]}, static_cast<Real>(distance[v]), 0, 0, 0);
+}
+
 }  // namespace
 
 void appendObjectConstraints(ConstraintPools& pools, ObjectKind kind,
                              const SimplicialComplex& complex, std::span<const Vec3> rest,
-                             Index first, const Material& m) {
+                             std::span<const Index> pins, Index first, const Material& m) {
   if (kind == ObjectKind::Collider || kind == ObjectKind::Particles) return;
   for (const Simplex<1>& e : complex.edges.vertices) {
     Points<2> x = {rest[e[0]], rest[e[1]]}, grad;
@@ -101,9 +143,13 @@ void appendObjectConstraints(ConstraintPools& pools, ObjectKind kind,
   switch (kind) {
     case ObjectKind::Cloth:
       appendClothConstraints(pools, complex, rest, first, m);
+      if (m.tethers && m.stretchCompliance == 0 && !pins.empty())
+        appendTethers(pools, complex, rest, pins, first);
       break;
     case ObjectKind::Rope:
       appendRopeConstraints(pools, complex, rest, first, m);
+      if (m.tethers && m.stretchCompliance == 0 && !pins.empty())
+        appendTethers(pools, complex, rest, pins, first);
       break;
     case ObjectKind::Solid:
       for (const Simplex<3>& t : complex.tets.vertices)

@@ -15,9 +15,12 @@ namespace nucleon {
 //  - cloth: shear at each triangle corner and bend on each interior edge's hinge, if enabled;
 //  - rope: bend at each pair of segments sharing a vertex, twist on each run of three segments
 //    whose rest shape is not straight, if enabled;
-//  - solid: volume on each tetrahedron.
+//  - solid: volume on each tetrahedron;
+//  - cloth and rope with pins and inextensible stretch (compliance 0): a tether from each free
+//    vertex to its nearest pin along the edges (multi-source Dijkstra), with that path length as
+//    the limit, if enabled. A soft material may stretch, so it gets no tethers.
 void appendObjectConstraints(ConstraintPools& pools, ObjectKind kind,
                              const SimplicialComplex& complex, std::span<const Vec3> rest,
-                             Index first, const Material& material);
+                             std::span<const Index> pins, Index first, const Material& material);
 
 }  // namespace nucleon

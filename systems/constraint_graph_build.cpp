@@ -27,13 +27,15 @@ ParticleIncidence buildIncidence(std::span<const std::array<Index, N>> constrain
 
 template <std::size_t N>
 ConstraintColoring colorConstraints(std::span<const std::array<Index, N>> constraints,
-                                    std::size_t particleCount) {
+                                    std::size_t particleCount, std::span<const Real> inverseMass) {
+  auto fixed = [&](Index i) { return !inverseMass.empty() && inverseMass[i] == 0; };
   std::vector<std::uint64_t> used(particleCount, 0);
   std::vector<std::size_t> size;
   std::vector<int> color(constraints.size(), kMaxColors);
   for (std::size_t c = 0; c < constraints.size(); ++c) {
     std::uint64_t taken = 0;
-    for (Index i : constraints[c]) taken |= used[i];
+    for (Index i : constraints[c])
+      if (!fixed(i)) taken |= used[i];
     int best = -1;
     for (int k = 0; k < static_cast<int>(size.size()); ++k)
       if (!(taken >> k & 1) && (best < 0 || size[k] < size[best])) best = k;
@@ -63,8 +65,8 @@ ConstraintColoring colorConstraints(std::span<const std::array<Index, N>> constr
 
 template <std::size_t N>
 bool validateColoring(const ConstraintColoring& coloring,
-                      std::span<const std::array<Index, N>> constraints,
-                      std::size_t particleCount) {
+                      std::span<const std::array<Index, N>> constraints, std::size_t particleCount,
+                      std::span<const Real> inverseMass) {
   if (coloring.order.size() != constraints.size()) return false;
   std::vector<char> seen(constraints.size(), 0);
   std::vector<std::size_t> stamp(particleCount, SIZE_MAX);
@@ -76,6 +78,7 @@ bool validateColoring(const ConstraintColoring& coloring,
       seen[c] = 1;
       if (k >= colors) continue;  // the serial overflow range may share particles
       for (Index i : constraints[c]) {
+        if (!inverseMass.empty() && inverseMass[i] == 0) continue;  // never written
         if (stamp[i] == k) return false;
         stamp[i] = k;
       }
@@ -86,14 +89,17 @@ bool validateColoring(const ConstraintColoring& coloring,
 template ParticleIncidence buildIncidence<2>(std::span<const std::array<Index, 2>>, std::size_t);
 template ParticleIncidence buildIncidence<3>(std::span<const std::array<Index, 3>>, std::size_t);
 template ParticleIncidence buildIncidence<4>(std::span<const std::array<Index, 4>>, std::size_t);
-template ConstraintColoring colorConstraints<2>(std::span<const std::array<Index, 2>>, std::size_t);
-template ConstraintColoring colorConstraints<3>(std::span<const std::array<Index, 3>>, std::size_t);
-template ConstraintColoring colorConstraints<4>(std::span<const std::array<Index, 4>>, std::size_t);
+template ConstraintColoring colorConstraints<2>(std::span<const std::array<Index, 2>>, std::size_t,
+                                                std::span<const Real>);
+template ConstraintColoring colorConstraints<3>(std::span<const std::array<Index, 3>>, std::size_t,
+                                                std::span<const Real>);
+template ConstraintColoring colorConstraints<4>(std::span<const std::array<Index, 4>>, std::size_t,
+                                                std::span<const Real>);
 template bool validateColoring<2>(const ConstraintColoring&, std::span<const std::array<Index, 2>>,
-                                  std::size_t);
+                                  std::size_t, std::span<const Real>);
 template bool validateColoring<3>(const ConstraintColoring&, std::span<const std::array<Index, 3>>,
-                                  std::size_t);
+                                  std::size_t, std::span<const Real>);
 template bool validateColoring<4>(const ConstraintColoring&, std::span<const std::array<Index, 4>>,
-                                  std::size_t);
+                                  std::size_t, std::span<const Real>);
 
 }  // namespace nucleon

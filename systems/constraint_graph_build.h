@@ -5,6 +5,7 @@
 #include <span>
 
 #include "components/constraint_graph.h"
+#include "nucleon/types.h"
 
 namespace nucleon {
 
@@ -15,14 +16,18 @@ ParticleIncidence buildIncidence(std::span<const std::array<Index, N>> constrain
 // Greedy coloring in constraint order: each constraint takes, among the colors none of its
 // particles has yet, the one with the fewest constraints so far, so that colors come out balanced.
 // At most kMaxColors colors; a constraint that fits none goes to a last, overflow range that the
-// sweep runs serially (ConstraintColoring::overflow).
+// sweep runs serially (ConstraintColoring::overflow). Particles with inverse mass 0 (pins) are
+// never written by a sweep, so constraints may share them within a color: thousands of tethers
+// to one pin still color like independent constraints.
 template <std::size_t N>
 ConstraintColoring colorConstraints(std::span<const std::array<Index, N>> constraints,
-                                    std::size_t particleCount);
+                                    std::size_t particleCount,
+                                    std::span<const Real> inverseMass = {});
 
 // True if no two constraints of one color share a particle and every constraint appears once.
 template <std::size_t N>
 bool validateColoring(const ConstraintColoring& coloring,
-                      std::span<const std::array<Index, N>> constraints, std::size_t particleCount);
+                      std::span<const std::array<Index, N>> constraints, std::size_t particleCount,
+                      std::span<const Real> inverseMass = {});
 
 }  // namespace nucleon

@@ -52,6 +52,12 @@ struct DistanceKernel {
   }
 };
 
+// Tether (long-range attachment): the distance of x0 from a pin x1, limited from above only:
+// C = ‖x0 − x1‖ − L ≤ 0 is satisfied, and only C > 0 is corrected (kUnilateral).
+struct TetherKernel : DistanceKernel {
+  static constexpr bool kUnilateral = true;
+};
+
 // Type 2: the angle θ ∈ [0, π] at x2 between the 1-simplices (x2, x0) and (x2, x1).
 //   θ = atan2(‖u × v‖, u · v),  u = x0 − x2, v = x1 − x2
 //   ∇_x0 θ = −t_u / ‖u‖,  ∇_x1 θ = −t_v / ‖v‖,  ∇_x2 θ = −∇_x0 θ − ∇_x1 θ,
@@ -151,6 +157,13 @@ NUCLEON_KERNEL Real projectConstraint(const Points<Kernel::kArity>& x,
   Points<Kernel::kArity> grad;
   Real c = Kernel::value(x, grad) - terms.rest;
   if constexpr (Kernel::kAngular) c = kernel_detail::wrapAngle(c);
+  if constexpr (requires { requires Kernel::kUnilateral; }) {
+    // An inequality C ≤ 0: inactive while satisfied, and its multiplier never pushes.
+    if (c <= 0) {
+      for (auto& d : dx) d.setZero();
+      return 0;
+    }
+  }
   const Real alphaTilde = c < 0 ? terms.alphaTildeBelow : terms.alphaTilde;
   Real stiffness = 0, velocity = 0;
   // Kernels with unit gradients skip the norms: the denominator then does not wait on them.

@@ -74,7 +74,11 @@ NUCLEON_KERNEL void projectInPlace(ConstraintPool<N>& pool, std::size_t c, Parti
   Points<N> dx;
   Vec3* p = ps.p.data();
   pool.lambda[c] += correct<Kernel>(pool, c, p, ps, invH, dx);
-  for (std::size_t k = 0; k < N; ++k) p[pool.particles[c][k]] += dx[k];
+  // Pins (w = 0) get dx = 0 and are not written: constraints of one color may share them.
+  for (std::size_t k = 0; k < N; ++k) {
+    const Index i = pool.particles[c][k];
+    if (ps.w[i] != 0) p[i] += dx[k];
+  }
 }
 }  // namespace sweep_detail
 

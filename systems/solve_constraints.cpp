@@ -31,6 +31,9 @@ void solveConstraints(ConstraintPools& pools, ParticlePool& particles, const Swe
       case ConstraintFamily::Volume:
         solveSweep<VolumeKernel>(kind, pools.volume, context);
         break;
+      case ConstraintFamily::Tether:
+        solveSweep<TetherKernel>(kind, pools.tether, context);
+        break;
     }
     if (op.endsRound && ground.enabled) projectGround(particles, ground);
   }

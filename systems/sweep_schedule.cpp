@@ -10,8 +10,8 @@ namespace nucleon {
 namespace {
 
 constexpr std::array<ConstraintFamily, kConstraintFamilyCount> kDefaultOrder = {
-    ConstraintFamily::Stretch, ConstraintFamily::Shear, ConstraintFamily::Bend,
-    ConstraintFamily::Twist, ConstraintFamily::Volume};
+    ConstraintFamily::Stretch, ConstraintFamily::Tether, ConstraintFamily::Shear,
+    ConstraintFamily::Bend,    ConstraintFamily::Twist,  ConstraintFamily::Volume};
 
 using Counts = std::array<int, kConstraintFamilyCount>;
 

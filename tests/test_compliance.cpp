@@ -6,8 +6,12 @@
 
 #include <cmath>
 
+#include <numbers>
+
+#include "engine/src/world_state.h"
 #include "nucleon/shapes.h"
 #include "sim_test_context.h"
+#include "systems/constraint_graph_build.h"
 
 using namespace nucleon;
 
@@ -196,4 +200,124 @@ TEST(Bending, StiffCurveHoldsACantilever) {
   EXPECT_GT(soft, 2 * stiff);
   EXPECT_GT(none, 0.5);  // a free rope swings down (0.89 m)
   EXPECT_LT(soft, none);
+}
+
+namespace {
+World hangingCloth32(bool tethers, SolverKind kind = SolverKind::GaussSeidel) {
+  GridSpec spec;
+  spec.resolution = {32, 32};
+  ObjectDef cloth = gridCloth(spec);
+  cloth.pins = {0, 31};
+  cloth.material.tethers = tethers;
+  World world;
+  world.setSolver(test::solverSettings(kind, 4, 1));
+  world.addCloth(cloth);
+  return world;
+}
+}  // namespace
+
+// Tethers bound how far a free vertex gets from its nearest pin: after every step, each is
+// within its rest path length (here they are the last family of each round, so they hold up
+// to rounding). With only 4 sweeps, the same cloth without tethers reaches twice the max strain
+// (measured 0.63 against 1.25).
+TEST(Tethers, HoldEveryVertexWithinItsRestPathFromThePin) {
+  World tethered = hangingCloth32(true), loose = hangingCloth32(false);
+  test::simulate(tethered, 120);
+  test::simulate(loose, 120);
+  const auto& pool = tethered.impl().state.constraints.tether;
+  ASSERT_EQ(pool.size(), 32u * 32u - 2u);  // every vertex but the two pins
+  const auto x = tethered.positions();
+  double worst = 0;
+  for (std::size_t c = 0; c < pool.size(); ++c) {
+    const auto [free, pin] = pool.particles[c];
+    worst = std::max(worst, double((x[free] - x[pin]).norm() / pool.rest[c]) - 1);
+  }
+  EXPECT_LT(worst, 1e-4);
+  EXPECT_LT(tethered.measure().maxStrain * 1.5, loose.measure().maxStrain)
+      << tethered.measure().maxStrain << " vs " << loose.measure().maxStrain;
+  EXPECT_GT(tethered.measure().minHeight, -2.0);  // the cloth's diagonal is 2.83 m
+
+  // Every tether shares one of two pins, yet they color like independent constraints: pins are
+  // never written, so the coloring ignores them.
+  const std::span<const std::array<Index, 2>> tuples = pool.particles;
+  const auto w = tethered.inverseMasses();
+  const ConstraintColoring coloring = colorConstraints(tuples, x.size(), w);
+  EXPECT_EQ(coloring.colorCount(), 1u);
+  EXPECT_TRUE(validateColoring(coloring, tuples, x.size(), w));
+  EXPECT_FALSE(validateColoring(coloring, tuples, x.size()));  // counting pins, it would not be
+}
+
+namespace {
+// Mean |angle − rest angle| over the corners of a soft-stretch curtain's triangles.
+double meanCornerError(bool shear) {
+  GridSpec spec;
+  spec.resolution = {12, 12};
+  spec.size = {1, 1};
+  spec.vertical = true;
+  ObjectDef cloth = gridCloth(spec);
+  cloth.pins = {0, 11};
+  cloth.material.stretchCompliance = cloth.material.compressionCompliance = Real(0.05);
+  cloth.material.shear = shear;
+  cloth.material.shearCompliance = 0;
+  World world;
+  world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 20, 2));
+  const ObjectId id = world.addCloth(cloth);
+  test::simulate(world, 120);
+  const auto x = world.positions(id);
+  double error = 0;
+  int corners = 0;
+  for (const auto& t : cloth.triangles)
+    for (int k = 0; k < 3; ++k) {
+      auto angle = [&](auto p) {
+        const Vec3 u = p[t[(k + 1) % 3]] - p[t[k]], v = p[t[(k + 2) % 3]] - p[t[k]];
+        return std::atan2(u.cross(v).norm(), u.dot(v));
+      };
+      error += std::abs(angle(x) - angle(cloth.vertices));
+      ++corners;
+    }
+  return error / corners;
+}
+}  // namespace
+
+// Type 2 shear at triangle corners keeps a soft-stretch cloth's triangles in shape: the corner
+// angles stay at least 3 times closer to their rest values than without shear.
+TEST(Shear, KeepsTriangleCornersOfASoftCloth) {
+  const double with = meanCornerError(true), without = meanCornerError(false);
+  EXPECT_LT(3 * with, without) << with << " vs " << without;
+}
+
+namespace {
+// Largest distance from the rest shape of a hard-bent helix (a spring of 3 turns, 60 segments)
+// clamped at one end by three pins, after 1 s under gravity.
+double helixDeviation(bool twist) {
+  std::vector<Vec3> points;
+  for (int i = 0; i <= 60; ++i) {
+    const double t = 2 * std::numbers::pi * 3 * i / 60;
+    points.emplace_back(Real(0.1 * std::cos(t)), Real(1 + 0.1 * std::sin(t)), Real(0.005 * i));
+  }
+  ObjectDef rope = polylineRope(points);
+  rope.pins = {0, 1, 2};
+  rope.material.bending = true;
+  rope.material.twist = twist;
+  rope.material.twistCompliance = Real(0.1);
+  World world;
+  world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 20, 10));
+  const ObjectId id = world.addRope(rope);
+  test::simulate(world, 60);
+  double worst = 0;
+  const auto x = world.positions(id);
+  for (std::size_t i = 0; i < x.size(); ++i)
+    worst = std::max(worst, double((x[i] - points[i]).norm()));
+  return worst;
+}
+}  // namespace
+
+// Bend angles alone leave a helix free to turn about its own segments, so the clamped spring
+// swings down; twist (type 3 dihedrals of consecutive segments, compliance 0.1) resists that
+// freedom and halves the deviation (measured 0.69 m against 1.35 m). Hard twist (compliance 0)
+// on this helix is not stable with Gauss–Seidel yet (it deviates 3.2 m), which this test does
+// not hide: it uses the soft setting.
+TEST(Twist, ResistsTheTurningThatBendAnglesAllow) {
+  const double with = helixDeviation(true), without = helixDeviation(false);
+  EXPECT_LT(with * 1.5, without) << with << " vs " << without;
 }

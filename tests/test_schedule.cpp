@@ -14,7 +14,9 @@ namespace {
 std::string sequence(const SweepPlan& plan) {
   std::string out;
   for (const SweepOp& op : plan.ops)  // s, h (shear), b, t, v
-    out += op.family == ConstraintFamily::Shear ? 'h' : toString(op.family)[0];
+    out += op.family == ConstraintFamily::Shear    ? 'h'
+           : op.family == ConstraintFamily::Tether ? 'T'
+                                                   : toString(op.family)[0];
   return out;
 }
 
@@ -29,7 +31,7 @@ TEST(SweepPlan, DefaultGivesEveryFamilyTheIterationCountInTheDefaultOrder) {
   SolverSettings solver;
   solver.iterations = 2;
   const SweepPlan plan = planSweeps(solver, {});
-  EXPECT_EQ(sequence(plan), "shbtvshbtv");  // stretch, shear, bend, twist, volume, twice
+  EXPECT_EQ(sequence(plan), "sThbtvsThbtv");  // stretch, tether, shear, bend, twist, volume, twice
   EXPECT_EQ(plan.rounds, 2);
 }
 

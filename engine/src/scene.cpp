@@ -111,7 +111,7 @@ class Reader {
       const std::string family = entry.string("family", "");
       if (!parseConstraintFamily(family, e.family))
         entry.fail(entry.at("family"),
-                   "expected stretch, shear, bend, twist or volume, got '" + family + "'");
+                   "expected stretch, shear, bend, twist, volume or tether, got '" + family + "'");
       for (const ScheduleEntry& earlier : out)
         if (earlier.family == e.family) entry.fail(entry.at("family"), "'" + family + "' repeats");
       if (!entry.has("sweeps")) entry.fail("missing 'sweeps'");
@@ -255,7 +255,7 @@ SceneObject readObject(const Reader& o, const std::string& folder) {
     const Reader m = o.child("material");
     m.allowOnly({"mass", "stretch_compliance", "compression_compliance", "bend_compliance",
                  "shear_compliance", "twist_compliance", "volume_compliance", "damping",
-                 "thickness"});
+                 "thickness", "tethers"});
     Material& mat = out.def.material;
     mat.mass = static_cast<Real>(m.number("mass", mat.mass, 1e-9, 1e9));
     mat.stretchCompliance =
@@ -272,6 +272,7 @@ SceneObject readObject(const Reader& o, const std::string& folder) {
     mat.volumeCompliance =
         static_cast<Real>(m.number("volume_compliance", mat.volumeCompliance, 0, 1e6));
     mat.damping = static_cast<Real>(m.number("damping", mat.damping, 0, 1e3));
+    mat.tethers = m.boolean("tethers", mat.tethers);
   }
   if (o.has("schedule")) out.def.schedule = o.schedule("schedule");
   if (o.has("pins")) {

@@ -69,6 +69,8 @@ const char* toString(ConstraintFamily family) {
       return "twist";
     case ConstraintFamily::Volume:
       return "volume";
+    case ConstraintFamily::Tether:
+      return "tether";
   }
   return "?";
 }
@@ -251,7 +253,7 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
   if (record.closed)
     record.restVolume = enclosedVolume(record.surface, particles.x, record.firstParticle);
 
-  appendObjectConstraints(s.constraints, kind, c, def.vertices, first, def.material);
+  appendObjectConstraints(s.constraints, kind, c, def.vertices, def.pins, first, def.material);
   record.schedule = def.schedule;
 
   s.objects.push_back(std::move(record));
@@ -333,7 +335,7 @@ void World::step(double dt) {
     s.constraints.forEach([&](auto& pool) {
       constexpr std::size_t n = std::remove_reference_t<decltype(pool)>::kArity;
       const std::span<const std::array<Index, n>> tuples = pool.particles;
-      pool.coloring = colorConstraints(tuples, s.particles.size());
+      pool.coloring = colorConstraints(tuples, s.particles.size(), s.particles.w);
       // Colored Gauss–Seidel stores the pool in color order, so that a color is contiguous in
       // memory and its sweep streams through the constraint columns. The other backends keep
       // the mesh order, whose neighbouring constraints share particles (better particle reuse).

@@ -32,11 +32,12 @@ bool parseSolverKind(const std::string& name, SolverKind& out);
 
 // The constraint families a schedule names (DESIGN.md §2): stretch (type 1, edges), shear
 // (type 2 at triangle corners), bend (type 3 hinges of cloth and type 2 angles of curves), twist
-// (type 3 on four consecutive curve points), volume (tetrahedra).
-enum class ConstraintFamily { Stretch, Shear, Bend, Twist, Volume };
-constexpr std::size_t kConstraintFamilyCount = 5;
+// (type 3 on four consecutive curve points), volume (tetrahedra), tether (long-range
+// attachments of free particles to the nearest pin).
+enum class ConstraintFamily { Stretch, Shear, Bend, Twist, Volume, Tether };
+constexpr std::size_t kConstraintFamilyCount = 6;
 const char* toString(ConstraintFamily family);
-// Parses "stretch", "shear", "bend", "twist", "volume"; returns false on anything else.
+// Parses "stretch", "shear", "bend", "twist", "volume", "tether"; false on anything else.
 bool parseConstraintFamily(const std::string& name, ConstraintFamily& out);
 
 // How many sweeps per substep each family gets, and the order in which they interleave: the
@@ -79,6 +80,12 @@ struct Material {
   // shape is not straight (a straight run has no defined dihedral), in rad/(N·m).
   bool twist = false;
   Real twistCompliance = 0;
+  // Long-range attachments (Kim, Chentanez and Müller 2012) of inextensible (stretch compliance
+  // 0) cloth and ropes that have pins: each free vertex may not move farther from its nearest pin
+  // (along the mesh's edges) than in the rest shape. A unilateral, hard limit: it stops a pinned
+  // cloth from stretching away from its pins when the sweeps are too few to carry its weight, and
+  // costs one projection per vertex.
+  bool tethers = true;
   // Stiffness-proportional damping time τ (s) of every constraint of the object: the constraint
   // force is −(C + τ dC/dt)/α. 0 = undamped. With α = 0 it makes C relax as e^(−t/τ).
   Real damping = 0;
@@ -111,7 +118,7 @@ struct SolverSettings {
   // constraints' corrections. Ignored by the Gauss–Seidel backends.
   Real relaxation = 1;
   // Per-family sweep counts and order; empty = every family `iterations` times, in the order
-  // stretch, shear, bend, twist, volume.
+  // stretch, tether, shear, bend, twist, volume.
   Schedule schedule;
 };
 

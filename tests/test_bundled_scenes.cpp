@@ -1,0 +1,48 @@
+// The bundled scenes do what their descriptions say, measured on the state.
+#include <gtest/gtest.h>
+
+#include "nucleon/scene.h"
+
+using namespace nucleon;
+
+namespace {
+Scene bundled(const std::string& name) {
+  return loadScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/" + name + ".json");
+}
+}  // namespace
+
+// The jelly cube lands, squashes and wobbles, and its volume stays within 2% of the rest volume
+// in every frame (hard volume constraints on each tet; the soft edges carry the wobble).
+TEST(BundledScenes, SolidJellyWobblesOnTheGroundAndKeepsItsVolume) {
+  const Scene scene = bundled("solid_jelly");
+  World world = buildWorld(scene);
+  double worstVolume = 0, largestStrain = 0, lowest = 1e9;
+  for (int frame = 0; frame < scene.frames; ++frame) {
+    world.step(1.0 / scene.fps);
+    const Measures m = world.measure();
+    worstVolume = std::max(worstVolume, std::abs(m.volumeRatio - 1));
+    largestStrain = std::max(largestStrain, m.maxStrain);
+    lowest = std::min(lowest, m.minHeight);
+    ASSERT_EQ(m.nanCount, 0u);
+  }
+  EXPECT_LT(worstVolume, 0.02);
+  EXPECT_GT(largestStrain, 0.02);          // it deforms on impact: the edges strain by more than 2%
+  EXPECT_GE(lowest, scene.ground.height);  // it never sinks below the ground
+  const Measures end = world.measure();
+  EXPECT_GT(end.contacts, 0u);                  // it rests on the ground
+  EXPECT_LT(end.maxStrain, largestStrain / 2);  // and has recovered most of its shape
+}
+
+// The stiff cantilever holds out horizontally (its tip within 2 cm of the clamp's height) while
+// its soft twin, the same but for a bend compliance of 2, droops clearly more.
+TEST(BundledScenes, RopeBendStiffCurveHoldsItsShape) {
+  const Scene scene = bundled("rope_bend");
+  World world = buildWorld(scene);
+  for (int frame = 0; frame < scene.frames; ++frame) world.step(1.0 / scene.fps);
+  const auto stiff = world.positions(world.objectAt(0));
+  const auto soft = world.positions(world.objectAt(1));
+  const double stiffDroop = 1 - stiff.back().y(), softDroop = 1 - soft.back().y();
+  EXPECT_LT(stiffDroop, 0.02);
+  EXPECT_GT(softDroop, 5 * stiffDroop);
+  EXPECT_EQ(world.measure().nanCount, 0u);
+}
