@@ -32,6 +32,8 @@ struct ConstraintPool {
   ParticleIncidence incidence;
   ConstraintColoring coloring;
   std::vector<Vec3> correction;  // Jacobi scratch, N per constraint
+  // Jacobi mass splitting: per particle, w_i times the number of this family's constraints on i.
+  std::vector<Real> splitInverseMass;
 
   std::size_t size() const { return particles.size(); }
 

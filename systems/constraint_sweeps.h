@@ -41,19 +41,18 @@ NUCLEON_KERNEL bool takesPart(const ConstraintPool<N>& pool, std::size_t c,
 }
 
 // Computes constraint c's correction from p (the positions being solved); returns Δλ.
-// With `splitCounts` (Jacobi), particle i's inverse mass is multiplied by the number of the
-// family's constraints that share it (mass splitting): see solveJacobi.
+// With `inverseMass` = pool.splitInverseMass (Jacobi), particle i's inverse mass is multiplied by
+// the number of the family's constraints that share it (mass splitting): see solveJacobi.
 template <class Kernel, std::size_t N>
 NUCLEON_KERNEL Real correct(const ConstraintPool<N>& pool, std::size_t c, const Vec3* p,
                             const ParticlePool& ps, Real invH, Points<N>& dx,
-                            const Index* splitCounts = nullptr) {
+                            const Real* inverseMass = nullptr) {
   Points<N> x, start;
   std::array<Real, N> weights;
   for (std::size_t k = 0; k < N; ++k) {
     const Index i = pool.particles[c][k];
     x[k] = p[i];
-    weights[k] = ps.w[i];
-    if (splitCounts) weights[k] *= Real(splitCounts[i + 1] - splitCounts[i]);
+    weights[k] = inverseMass ? inverseMass[i] : ps.w[i];
   }
   const Real invH2 = invH * invH;
   ProjectionTerms terms;
@@ -102,14 +101,14 @@ void solveJacobi(ConstraintPool<N>& pool, const SweepContext& context) {
   const ParticlePool& ps = context.particles;
   const Vec3* p = ps.p.data();
   const Real invH = 1 / context.h, omega = context.relaxation;
-  const Index* splitCounts = pool.incidence.offset.data();
+  const Real* splitInverseMass = pool.splitInverseMass.data();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pool.size(), sweep_detail::kGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       Points<N> dx;
                       for (std::size_t c = r.begin(); c != r.end(); ++c) {
                         if (sweep_detail::takesPart(pool, c, context)) {
                           pool.lambda[c] += omega * sweep_detail::correct<Kernel>(
-                                                        pool, c, p, ps, invH, dx, splitCounts);
+                                                        pool, c, p, ps, invH, dx, splitInverseMass);
                         } else {
                           for (auto& d : dx) d.setZero();
                         }

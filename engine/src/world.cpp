@@ -344,6 +344,10 @@ void World::step(double dt) {
         std::iota(pool.coloring.order.begin(), pool.coloring.order.end(), Index(0));
       }
       pool.incidence = buildIncidence(tuples, s.particles.size());
+      pool.splitInverseMass.resize(s.particles.size());
+      for (std::size_t i = 0; i < s.particles.size(); ++i)
+        pool.splitInverseMass[i] =
+            s.particles.w[i] * Real(pool.incidence.offset[i + 1] - pool.incidence.offset[i]);
       pool.correction.assign(n * pool.size(), Vec3::Zero());
     });
     s.plan = planSweeps(s.solver, s.objects);
