@@ -23,6 +23,7 @@ struct SweepPlan {
   std::vector<std::uint8_t> objectRuns;
   int rounds = 0;  // R: the largest sweep count of any family of any object
   std::array<int, kConstraintFamilyCount> sweepsOfFamily{};  // ops per family (world schedule)
+  std::uint64_t projectionsPerSubstep = 0;  // constraint projections the ops perform
 };
 
 }  // namespace nucleon

@@ -2,12 +2,14 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
+
+#include "systems/contact_friction.h"
 
 namespace nucleon {
 
 void projectGround(ParticlePool& particles, const GroundPlane& ground) {
   const Real surface = ground.height + ground.thickness;
+  const Vec3 up(0, 1, 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles.size(), 4096),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
@@ -15,16 +17,8 @@ void projectGround(ParticlePool& particles, const GroundPlane& ground) {
                         const Real depth = surface - p.y();
                         if (depth <= 0 || particles.w[i] == 0) continue;
                         p.y() = surface;
-                        // Tangential motion of this substep so far.
-                        Vec3 slide = p - particles.x[i];
-                        slide.y() = 0;
-                        const Real length = slide.norm();
-                        if (length <= ground.staticFriction * depth) {
-                          p.x() = particles.x[i].x();
-                          p.z() = particles.x[i].z();
-                        } else {
-                          p -= slide * std::min(Real(1), ground.friction * depth / length);
-                        }
+                        applyContactFriction(p, particles.x[i], up, depth, ground.staticFriction,
+                                             ground.friction);
                       }
                     });
 }

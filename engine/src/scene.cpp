@@ -314,8 +314,8 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     throw SceneError(label + ": malformed JSON: " + what);
   }
   const Reader top(j, "", label);
-  top.allowOnly({"name", "description", "frames", "fps", "threads", "gravity", "ground", "solver",
-                 "objects"});
+  top.allowOnly({"name", "description", "frames", "fps", "threads", "gravity", "ground", "spheres",
+                 "solver", "objects"});
   Scene scene;
   scene.path = label;
   scene.name = top.string("name", fs::path(label).stem().string());
@@ -334,6 +334,21 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     scene.ground.friction = static_cast<Real>(g.number("friction", scene.ground.friction, 0, 10));
     scene.ground.staticFriction = static_cast<Real>(g.number(
         "static_friction", std::max(scene.ground.staticFriction, scene.ground.friction), 0, 10));
+  }
+  if (top.has("spheres")) {
+    if (!j.at("spheres").is_array()) top.fail("spheres", "expected a list of spheres");
+    for (std::size_t i = 0; i < j.at("spheres").size(); ++i) {
+      const Reader r(j.at("spheres")[i], "spheres[" + std::to_string(i) + "]", label);
+      r.allowOnly({"center", "radius", "thickness", "friction", "static_friction"});
+      SphereCollider sphere;
+      sphere.center = r.vec3("center", sphere.center);
+      sphere.radius = static_cast<Real>(r.number("radius", sphere.radius, 1e-6, 1e6));
+      sphere.thickness = static_cast<Real>(r.number("thickness", sphere.thickness, 0, 10));
+      sphere.friction = static_cast<Real>(r.number("friction", sphere.friction, 0, 10));
+      sphere.staticFriction = static_cast<Real>(
+          r.number("static_friction", std::max(sphere.staticFriction, sphere.friction), 0, 10));
+      scene.spheres.push_back(sphere);
+    }
   }
   if (top.has("solver")) {
     const Reader s = top.child("solver");
@@ -377,6 +392,7 @@ World buildWorld(const Scene& scene) {
   try {
     world.setGravity(scene.gravity);
     world.setGround(scene.ground);
+    for (const SphereCollider& sphere : scene.spheres) world.addSphereCollider(sphere);
     world.setSolver(scene.solver);
     world.setThreads(scene.threads);
     for (const SceneObject& o : scene.objects) {

@@ -22,22 +22,30 @@ StepGraph::StepGraph(WorldState& state)
     : state_(state),
       forces_(graph_,
               [this](tbb::flow::continue_msg) {
-                timed(state_.stageTimes.forces,
+                timed(state_.profile.forces,
                       [&] { applyForces(state_.particles, state_.gravity, h_); });
               }),
       predict_(graph_,
                [this](tbb::flow::continue_msg) {
-                 timed(state_.stageTimes.predict, [&] { predictPositions(state_.particles, h_); });
+                 timed(state_.profile.predict, [&] { predictPositions(state_.particles, h_); });
                }),
       solve_(graph_,
              [this](tbb::flow::continue_msg) {
-               timed(state_.stageTimes.solve, [&] {
-                 solveConstraints(state_.constraints, state_.particles, state_.plan, state_.ground,
-                                  state_.solver.kind, h_, state_.solver.relaxation);
+               double contactSeconds = 0;
+               timed(state_.profile.solve, [&] {
+                 contactSeconds =
+                     solveConstraints(state_.constraints, state_.particles, state_.plan,
+                                      ContactSurfaces{state_.ground, state_.spheres},
+                                      state_.solver.kind, h_, state_.solver.relaxation);
                });
+               // Contacts are projected between sweep rounds: book them as collisions.
+               state_.profile.solve -= contactSeconds;
+               state_.profile.collisions += contactSeconds;
+               state_.profile.projections += state_.plan.projectionsPerSubstep;
+               ++state_.profile.substeps;
              }),
       update_(graph_, [this](tbb::flow::continue_msg) {
-        timed(state_.stageTimes.update,
+        timed(state_.profile.update,
               [&] { state_.nonFiniteRecoveries += updateState(state_.particles, h_); });
       }) {
   tbb::flow::make_edge(forces_, predict_);

@@ -13,6 +13,8 @@
 #include "systems/constraint_graph_build.h"
 #include "systems/ground_contact.h"
 #include "systems/measures.h"
+#include "systems/solve_constraints.h"
+#include "systems/sphere_contact.h"
 #include "systems/sweep_schedule.h"
 
 namespace nucleon {
@@ -299,6 +301,23 @@ const GroundPlane& World::ground() const {
   return impl_->state.ground;
 }
 
+void World::addSphereCollider(const SphereCollider& sphere) {
+  require(finite(sphere.center) && std::abs(sphere.center.maxCoeff()) < 1e9 &&
+              std::abs(sphere.center.minCoeff()) < 1e9,
+          "sphere centre must be finite");
+  require(std::isfinite(sphere.radius) && sphere.radius > 0 && sphere.radius < 1e9,
+          "sphere radius must be positive and finite");
+  require(std::isfinite(sphere.thickness) && sphere.thickness >= 0,
+          "sphere thickness must be finite and non-negative");
+  require(std::isfinite(sphere.friction) && sphere.friction >= 0 &&
+              std::isfinite(sphere.staticFriction) && sphere.staticFriction >= 0,
+          "sphere friction must be finite and non-negative");
+  impl_->state.spheres.push_back(sphere);
+}
+std::span<const SphereCollider> World::sphereColliders() const {
+  return impl_->state.spheres;
+}
+
 void World::setSolver(const SolverSettings& settings) {
   require(settings.iterations >= 0 && settings.iterations <= 100000,
           "iterations must be in [0, 100000]");
@@ -351,6 +370,7 @@ void World::step(double dt) {
       pool.correction.assign(n * pool.size(), Vec3::Zero());
     });
     s.plan = planSweeps(s.solver, s.objects);
+    s.plan.projectionsPerSubstep = countProjections(s.constraints, s.particles, s.plan);
     s.topologyDirty = false;
   }
   if (!impl.arena) {
@@ -364,6 +384,7 @@ void World::step(double dt) {
     const Real h = static_cast<Real>(dt / impl.state.solver.substeps);
     for (int i = 0; i < impl.state.solver.substeps; ++i) impl.graph->runSubstep(h);
   });
+  ++impl.state.profile.steps;
 }
 
 std::size_t World::particleCount() const {
@@ -447,7 +468,15 @@ Measures World::measure() const {
   m.volumeRatio = rest != 0 ? now / rest : -1.0;
   if (s.ground.enabled)  // touching: within 1 mm of the contact surface
     m.contacts = countGroundContacts(s.particles, s.ground, Real(1e-3));
+  m.contacts += countSphereContacts(s.particles, s.spheres, Real(1e-3));
   return m;
+}
+
+const StepProfile& World::profile() const {
+  return impl_->state.profile;
+}
+void World::resetProfile() {
+  impl_->state.profile = StepProfile{};
 }
 
 std::uint64_t World::stateHash() const {

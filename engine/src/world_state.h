@@ -18,15 +18,6 @@ namespace nucleon {
 
 class StepGraph;
 
-// Seconds spent in each stage since the world was created (the engine's own profile).
-struct StageTimes {
-  double forces = 0;
-  double predict = 0;
-  double solve = 0;
-  double collisions = 0;
-  double update = 0;
-};
-
 struct WorldState {
   ParticlePool particles;
   ConstraintPools constraints;
@@ -34,10 +25,11 @@ struct WorldState {
   Vec3 gravity = Vec3(0, Real(-9.81), 0);
   SolverSettings solver;
   GroundPlane ground;
+  std::vector<SphereCollider> spheres;
   SweepPlan plan;                       // from solver.schedule and the objects' schedules
   bool topologyDirty = true;            // incidence, coloring and plan need rebuilding
   std::size_t nonFiniteRecoveries = 0;  // particles reset by updateState since creation
-  StageTimes stageTimes;
+  StepProfile profile;                  // the engine's own per-stage timing
 };
 
 struct World::Impl {

@@ -132,6 +132,30 @@ struct GroundPlane {
   Real staticFriction = Real(0.6);
 };
 
+// A static sphere the particles may not enter (a collider without a mesh). Particles stay
+// `thickness` outside its surface; friction as for the ground.
+struct SphereCollider {
+  Vec3 center = Vec3::Zero();
+  Real radius = Real(0.5);
+  Real thickness = Real(0.005);
+  Real friction = Real(0.5);
+  Real staticFriction = Real(0.6);
+};
+
+// Wall-clock seconds each stage of step() has taken since the world was created or the profile
+// was last reset (the engine's own profile). `solve` excludes the contact projections, which are
+// `collisions`; `projections` counts constraint projections in the solve stage.
+struct StepProfile {
+  double forces = 0;
+  double predict = 0;
+  double solve = 0;
+  double collisions = 0;
+  double update = 0;
+  std::uint64_t steps = 0;
+  std::uint64_t substeps = 0;
+  std::uint64_t projections = 0;
+};
+
 // Quality measures of the current state (DESIGN.md §7).
 struct Measures {
   double maxStrain = 0;   // max |L/L0 − 1| over stretch constraints
@@ -141,7 +165,7 @@ struct Measures {
   std::size_t nanCount = 0;    // non-finite position or velocity components
   double minHeight = 0;        // lowest particle coordinate along −gravity (y if gravity is 0)
   double volumeRatio = -1;     // current / rest volume of closed objects; −1 if there are none
-  std::size_t contacts = 0;    // particles touching the ground plane
+  std::size_t contacts = 0;    // particles touching the ground plane or a sphere collider
 };
 
 class World {
@@ -166,6 +190,10 @@ class World {
   Vec3 gravity() const;
   void setGround(const GroundPlane& ground);  // throws std::invalid_argument on non-finite values
   const GroundPlane& ground() const;
+  // Adds a static sphere collider; throws std::invalid_argument on non-finite values or a
+  // radius that is not positive.
+  void addSphereCollider(const SphereCollider& sphere);
+  std::span<const SphereCollider> sphereColliders() const;
   void setSolver(const SolverSettings& settings);
   const SolverSettings& solver() const;
   // Worker threads for step(); 0 = all cores. Results of the Gauss–Seidel solver do not depend on
@@ -196,6 +224,8 @@ class World {
   // Sweeps of a family in each substep under the current schedule (most of any object's).
   int sweepsPerSubstep(ConstraintFamily family) const;
   Measures measure() const;
+  const StepProfile& profile() const;
+  void resetProfile();
   // 64-bit FNV-1a hash of every particle's position and velocity bytes.
   std::uint64_t stateHash() const;
 
