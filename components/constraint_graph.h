@@ -24,6 +24,7 @@ struct ConstraintColoring {
   std::vector<Index> order;        // constraint indices grouped by color
   std::vector<Index> colorOffset;  // color k is order[colorOffset[k] .. colorOffset[k+1])
   bool overflow = false;           // the last range is not a color: solve it serially
+  bool inPlace = false;            // the pool is stored in this order: order[k] = k
   std::size_t colorCount() const { return colorOffset.empty() ? 0 : colorOffset.size() - 1; }
 };
 

@@ -34,6 +34,7 @@ struct ConstraintPool {
   std::vector<Vec3> correction;  // Jacobi scratch, N per constraint
   // Jacobi mass splitting: per particle, w_i times the number of this family's constraints on i.
   std::vector<Real> splitInverseMass;
+  bool undamped = true;  // no constraint has damping: the batched distance path applies
 
   std::size_t size() const { return particles.size(); }
 

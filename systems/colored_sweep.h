@@ -32,4 +32,21 @@ __attribute__((flatten)) void forEachColor(const ConstraintColoring& coloring, s
   }
 }
 
+// The same loop by ranges: projectRange(begin, end) for pieces of a color (positions in coloring
+// order; no two constraints of a piece share a free particle), projectOne(c) for the overflow.
+template <class ProjectRange, class ProjectOne>
+void forEachColorRange(const ConstraintColoring& coloring, std::size_t grain,
+                       ProjectRange&& projectRange, ProjectOne&& projectOne) {
+  for (std::size_t k = 0; k < coloring.colorCount(); ++k) {
+    const Index begin = coloring.colorOffset[k], end = coloring.colorOffset[k + 1];
+    if (coloring.overflow && k + 1 == coloring.colorCount()) {
+      for (Index o = begin; o < end; ++o) projectOne(coloring.order[o]);
+      continue;
+    }
+    tbb::parallel_for(
+        tbb::blocked_range<Index>(begin, end, grain),
+        [&](const tbb::blocked_range<Index>& r) { projectRange(r.begin(), r.end()); });
+  }
+}
+
 }  // namespace nucleon

@@ -10,6 +10,8 @@
 
 #include <cstdint>
 
+#include <type_traits>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -18,6 +20,7 @@
 #include "nucleon/world.h"
 #include "systems/colored_sweep.h"
 #include "systems/constraint_kernels.h"
+#include "systems/distance_batch.h"
 #include "systems/jacobi_gather.h"
 
 namespace nucleon {
@@ -121,10 +124,30 @@ void solveJacobi(ConstraintPool<N>& pool, const SweepContext& context) {
 template <class Kernel, std::size_t N>
 void solveColored(ConstraintPool<N>& pool, const SweepContext& context) {
   const Real invH = 1 / context.h;
-  forEachColor(pool.coloring, sweep_detail::kGrain, [&](Index c) {
-    if (sweep_detail::takesPart(pool, c, context))
-      sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH);
-  });
+  if constexpr (std::is_base_of_v<DistanceKernel, Kernel>) {
+    // Undamped distance constraints stored in color order: eight at a time (distance_batch.h).
+    if (!context.objectRuns && pool.undamped && pool.coloring.inPlace &&
+        distanceBatchesAvailable()) {
+      ParticlePool& ps = context.particles;
+      const DistanceBatch batch{pool.particles.data(), pool.rest.data(), pool.compliance.data(),
+                                pool.compressionCompliance.data(), pool.lambda.data(), ps.p.data(),
+                                ps.w.data(), invH * invH, requires {requires Kernel::kUnilateral;
+    }
+  };
+  auto projectOne = [&](Index c) { sweep_detail::projectInPlace<Kernel>(pool, c, ps, invH); };
+  forEachColorRange(
+      pool.coloring, sweep_detail::kGrain,
+      [&](Index begin, Index end) {
+        for (Index c = projectDistanceBatches(batch, begin, end); c < end; ++c) projectOne(c);
+      },
+      projectOne);
+  return;
+}
+}  // namespace nucleon
+forEachColor(pool.coloring, sweep_detail::kGrain, [&](Index c) {
+  if (sweep_detail::takesPart(pool, c, context))
+    sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH);
+});
 }
 
 // Runs one sweep of the given backend.

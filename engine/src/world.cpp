@@ -1,5 +1,6 @@
 #include "nucleon/world.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
@@ -361,7 +362,10 @@ void World::step(double dt) {
       if (s.solver.kind == SolverKind::ColoredGaussSeidel) {
         pool.permute(pool.coloring.order);
         std::iota(pool.coloring.order.begin(), pool.coloring.order.end(), Index(0));
+        pool.coloring.inPlace = true;
       }
+      pool.undamped =
+          std::all_of(pool.damping.begin(), pool.damping.end(), [](Real tau) { return tau == 0; });
       pool.incidence = buildIncidence(tuples, s.particles.size());
       pool.splitInverseMass.resize(s.particles.size());
       for (std::size_t i = 0; i < s.particles.size(); ++i)

@@ -1,0 +1,229 @@
+// nucleon against Bullet's btSoftBody on the same cloth, in one process, alternating the engines
+// run by run so that both see the same machine state. Prints a table with the step-time ratio and
+// both engines' strain, and optionally writes every run's figures as CSV.
+//
+//   nucleon_bench_cloth [--n 64,128,256] [--iterations 4,10,20] [--scenes hanging,sphere]
+//                       [--bending off|on|both] [--solvers colored-gs,jacobi] [--threads 2]
+//                       [--repeats 3] [--steps 120] [--warmup 10] [--csv FILE] [--no-bullet]
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "bench/cloth_case.h"
+
+namespace nucleon::bench {
+namespace {
+
+std::vector<std::string> splitList(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+std::vector<int> intList(const std::string& flag, const std::string& text, int lo, int hi) {
+  std::vector<int> out;
+  for (const std::string& item : splitList(text)) {
+    std::size_t used = 0;
+    int value = 0;
+    try {
+      value = std::stoi(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != item.size() || value < lo || value > hi)
+      throw std::invalid_argument(flag + ": expected integers in [" + std::to_string(lo) + ", " +
+                                  std::to_string(hi) + "], got '" + item + "'");
+    out.push_back(value);
+  }
+  if (out.empty()) throw std::invalid_argument(flag + ": empty list");
+  return out;
+}
+
+struct Options {
+  std::vector<int> resolutions = {64, 128, 256};
+  std::vector<int> iterations = {4, 10, 20};
+  std::vector<ClothScene> scenes = {ClothScene::Hanging, ClothScene::Sphere};
+  std::vector<bool> bending = {false};
+  std::vector<SolverKind> solvers = {SolverKind::ColoredGaussSeidel, SolverKind::Jacobi};
+  int threads = 2;
+  int repeats = 3;
+  int steps = 120;
+  int warmup = 10;
+  std::string csv;
+  bool bullet = true;
+};
+
+Options parse(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "--n") {
+      o.resolutions = intList(a, value(), 2, 2048);
+    } else if (a == "--iterations") {
+      o.iterations = intList(a, value(), 1, 1000);
+    } else if (a == "--scenes") {
+      o.scenes.clear();
+      for (const std::string& s : splitList(value())) {
+        if (s == "hanging")
+          o.scenes.push_back(ClothScene::Hanging);
+        else if (s == "sphere")
+          o.scenes.push_back(ClothScene::Sphere);
+        else
+          throw std::invalid_argument("--scenes: unknown scene '" + s + "'");
+      }
+    } else if (a == "--bending") {
+      const std::string v = value();
+      if (v == "off")
+        o.bending = {false};
+      else if (v == "on")
+        o.bending = {true};
+      else if (v == "both")
+        o.bending = {false, true};
+      else
+        throw std::invalid_argument("--bending: expected off, on or both");
+    } else if (a == "--solvers") {
+      o.solvers.clear();
+      for (const std::string& s : splitList(value())) {
+        SolverKind kind;
+        if (!parseSolverKind(s, kind) || kind == SolverKind::Multigrid)
+          throw std::invalid_argument("--solvers: unknown solver '" + s + "'");
+        o.solvers.push_back(kind);
+      }
+    } else if (a == "--threads") {
+      o.threads = intList(a, value(), 0, 4096).front();
+    } else if (a == "--repeats") {
+      o.repeats = intList(a, value(), 1, 1000).front();
+    } else if (a == "--steps") {
+      o.steps = intList(a, value(), 2, 100000).front();
+    } else if (a == "--warmup") {
+      o.warmup = intList(a, value(), 0, 100000).front();
+    } else if (a == "--csv") {
+      o.csv = value();
+    } else if (a == "--no-bullet") {
+      o.bullet = false;
+    } else {
+      throw std::invalid_argument("unknown option '" + a + "' (see the header of " __FILE__ ")");
+    }
+  }
+  if (o.warmup >= o.steps) throw std::invalid_argument("--warmup must be below --steps");
+  if (o.scenes.empty() || o.solvers.empty()) throw std::invalid_argument("nothing to run");
+  return o;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// The figures of one engine on one case: the last repeat's result with the median step time.
+struct Summary {
+  std::string engine, solver;
+  int threads = 1;
+  RunResult result;
+  double medianMs = 0, minMs = 0;
+};
+
+Summary summarise(std::string engine, std::string solver, int threads,
+                  const std::vector<RunResult>& runs) {
+  Summary s{std::move(engine), std::move(solver), threads, runs.back(), 0, 0};
+  std::vector<double> ms;
+  for (const RunResult& r : runs) ms.push_back(r.msPerStep);
+  s.medianMs = median(ms);
+  s.minMs = *std::min_element(ms.begin(), ms.end());
+  return s;
+}
+
+void writeCsvHeader(std::ostream& out) {
+  out << "scene,bending,n,iterations,engine,solver,threads,repeats,ms_per_step,ms_min,"
+         "forces_ms,predict_ms,solve_ms,collisions_ms,update_ms,projections_per_s,max_strain,"
+         "mean_strain,peak_max_strain,penetration_m,lowest_y,finite,state_hash\n";
+}
+
+void writeCsvRow(std::ostream& out, const ClothCase& c, int repeats, const Summary& s) {
+  const RunResult& r = s.result;
+  char hash[32];
+  std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(r.stateHash));
+  out << toString(c.scene) << ',' << (c.bending ? 1 : 0) << ',' << c.resolution << ','
+      << c.iterations << ',' << s.engine << ',' << s.solver << ',' << s.threads << ',' << repeats
+      << ',' << s.medianMs << ',' << s.minMs << ',' << r.forcesMs << ',' << r.predictMs << ','
+      << r.solveMs << ',' << r.collisionsMs << ',' << r.updateMs << ',' << r.projectionsPerSecond
+      << ',' << r.finalStrain.max << ',' << r.finalStrain.mean << ',' << r.peakMaxStrain << ','
+      << (c.scene == ClothScene::Sphere ? r.penetration : 0.0) << ',' << r.lowestY << ','
+      << (r.finite ? 1 : 0) << ',' << (s.engine == "nucleon" ? hash : "") << '\n';
+}
+
+int run(const Options& o) {
+  const bool withBullet = o.bullet && bulletAvailable();
+  if (o.bullet && !withBullet)
+    std::cerr << "nucleon_bench_cloth: built without Bullet (install libbullet-dev and "
+                 "reconfigure); running nucleon only\n";
+  std::ofstream csv;
+  if (!o.csv.empty()) {
+    csv.open(o.csv);
+    if (!csv) throw std::runtime_error(o.csv + ": cannot write");
+    writeCsvHeader(csv);
+  }
+  std::printf("%-8s %4s %4s %4s | %-14s %9s %9s %9s | %6s\n", "scene", "N", "K", "bend", "engine",
+              "ms/step", "maxstrain", "meanstr", "ratio");
+  for (ClothScene scene : o.scenes)
+    for (bool bending : o.bending)
+      for (int n : o.resolutions)
+        for (int k : o.iterations) {
+          ClothCase c;
+          c.scene = scene;
+          c.resolution = n;
+          c.iterations = k;
+          c.bending = bending;
+          c.steps = o.steps;
+          c.warmup = o.warmup;
+          const ClothMesh mesh = makeClothMesh(c);
+          // Alternate: each repeat runs every engine once, Bullet first.
+          std::vector<RunResult> bulletRuns;
+          std::vector<std::vector<RunResult>> nucleonRuns(o.solvers.size());
+          for (int rep = 0; rep < o.repeats; ++rep) {
+            if (withBullet) bulletRuns.push_back(runBulletCloth(c, mesh));
+            for (std::size_t s = 0; s < o.solvers.size(); ++s)
+              nucleonRuns[s].push_back(runNucleonCloth(c, mesh, o.solvers[s], o.threads));
+          }
+          std::vector<Summary> rows;
+          if (withBullet) rows.push_back(summarise("bullet", "btSoftBody", 1, bulletRuns));
+          for (std::size_t s = 0; s < o.solvers.size(); ++s)
+            rows.push_back(summarise("nucleon", toString(o.solvers[s]), o.threads, nucleonRuns[s]));
+          for (const Summary& row : rows) {
+            const std::string label = row.engine == "bullet" ? "bullet" : row.solver;
+            std::printf("%-8s %4d %4d %4s | %-14s %9.3f %9.4f %9.5f |", toString(scene), n, k,
+                        bending ? "yes" : "no", label.c_str(), row.medianMs,
+                        row.result.finalStrain.max, row.result.finalStrain.mean);
+            if (withBullet && row.engine == "nucleon")
+              std::printf(" %5.2fx", rows.front().medianMs / row.medianMs);
+            std::printf("\n");
+            if (csv) writeCsvRow(csv, c, o.repeats, row);
+          }
+          std::fflush(stdout);
+        }
+  return 0;
+}
+
+}  // namespace
+}  // namespace nucleon::bench
+
+int main(int argc, char** argv) {
+  try {
+    return nucleon::bench::run(nucleon::bench::parse(argc, argv));
+  } catch (const std::exception& e) {
+    std::cerr << "nucleon_bench_cloth: " << e.what() << '\n';
+    return 2;
+  }
+}

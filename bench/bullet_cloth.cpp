@@ -1,0 +1,107 @@
+// The comparison cloth in Bullet's btSoftBody, built the way Bullet's own demos build cloth
+// (btSoftRigidDynamicsWorld with the default soft-body solver), from the shared mesh: one node
+// per vertex with nucleon's lumped mass (mass 0 pins a node), one link per mesh edge with the
+// default material (linear stiffness kLST = 1: hard), optionally Bullet's bending links
+// (generateBendingConstraints(2)), K position iterations, no velocity or drift iterations.
+// stepSimulation(dt, 0) advances by exactly dt in one step.
+#include <chrono>
+#include <cmath>
+
+#include "bench/cloth_case.h"
+
+#ifdef NUCLEON_HAVE_BULLET
+#include <BulletSoftBody/btDefaultSoftBodySolver.h>
+#include <BulletSoftBody/btSoftBody.h>
+#include <BulletSoftBody/btSoftBodyRigidBodyCollisionConfiguration.h>
+#include <BulletSoftBody/btSoftRigidDynamicsWorld.h>
+#include <btBulletDynamicsCommon.h>
+#endif
+
+namespace nucleon::bench {
+
+#ifdef NUCLEON_HAVE_BULLET
+
+bool bulletAvailable() {
+  return true;
+}
+
+RunResult runBulletCloth(const ClothCase& c, const ClothMesh& mesh) {
+  using Clock = std::chrono::steady_clock;
+  btSoftBodyRigidBodyCollisionConfiguration configuration;
+  btCollisionDispatcher dispatcher(&configuration);
+  btDbvtBroadphase broadphase;
+  btSequentialImpulseConstraintSolver rigidSolver;
+  btDefaultSoftBodySolver softSolver;
+  btSoftRigidDynamicsWorld world(&dispatcher, &broadphase, &rigidSolver, &configuration,
+                                 &softSolver);
+  const btVector3 gravity(0, btScalar(-9.81), 0);
+  world.setGravity(gravity);
+  btSoftBodyWorldInfo& info = world.getWorldInfo();
+  info.m_gravity = gravity;
+  info.m_broadphase = &broadphase;
+  info.m_dispatcher = &dispatcher;
+  info.m_sparsesdf.Initialize();
+
+  std::vector<btVector3> nodes;
+  for (const Vec3& v : mesh.def.vertices) nodes.emplace_back(v.x(), v.y(), v.z());
+  std::vector<btScalar> masses(mesh.mass.begin(), mesh.mass.end());
+  auto* body = new btSoftBody(&info, int(nodes.size()), nodes.data(), masses.data());
+  for (const auto& e : mesh.edges) body->appendLink(int(e[0]), int(e[1]));
+  for (const auto& t : mesh.def.triangles) body->appendFace(int(t[0]), int(t[1]), int(t[2]));
+  if (c.bending) body->generateBendingConstraints(2, body->m_materials[0]);
+  body->m_cfg.piterations = c.iterations;
+  body->m_cfg.viterations = 0;
+  body->m_cfg.diterations = 0;
+  body->m_cfg.citerations = c.iterations;
+  body->m_cfg.kDF = c.friction;
+  body->getCollisionShape()->setMargin(c.thickness);
+  world.addSoftBody(body);
+
+  btSphereShape sphereShape(c.sphereRadius);
+  btRigidBody sphere(btRigidBody::btRigidBodyConstructionInfo(0, nullptr, &sphereShape));
+  if (c.scene == ClothScene::Sphere) world.addRigidBody(&sphere);
+
+  RunResult r;
+  std::vector<Vec3> x(nodes.size());
+  auto read = [&] {
+    for (int i = 0; i < body->m_nodes.size(); ++i) {
+      const btVector3& p = body->m_nodes[i].m_x;
+      x[i] = Vec3(Real(p.x()), Real(p.y()), Real(p.z()));
+    }
+  };
+  double timed = 0;
+  for (int step = 0; step < c.steps; ++step) {
+    const auto start = Clock::now();
+    world.stepSimulation(btScalar(c.dt), 0);
+    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    if (step >= c.warmup) timed += seconds;
+    read();
+    r.peakMaxStrain = std::max(r.peakMaxStrain, measureStrain(mesh, x).max);
+  }
+  r.msPerStep = timed * 1e3 / (c.steps - c.warmup);
+  r.finalStrain = measureStrain(mesh, x);
+  r.penetration = spherePenetration(c, x);
+  r.lowestY = 1e30;
+  for (const Vec3& v : x) {
+    r.lowestY = std::min(r.lowestY, double(v.y()));
+    r.finite = r.finite && std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z());
+  }
+  if (c.scene == ClothScene::Sphere) world.removeRigidBody(&sphere);
+  world.removeSoftBody(body);
+  delete body;
+  return r;
+}
+
+#else
+
+bool bulletAvailable() {
+  return false;
+}
+
+RunResult runBulletCloth(const ClothCase&, const ClothMesh&) {
+  return {};
+}
+
+#endif
+
+}  // namespace nucleon::bench

@@ -1,0 +1,64 @@
+// The comparison cloth in nucleon: the shared mesh, hard stretch (compliance 0) on every edge,
+// K sweeps per substep, one substep, the engine's defaults otherwise (tethers included: they are
+// part of how nucleon holds a pinned cloth and are counted in its projections and time).
+#include <chrono>
+#include <cmath>
+
+#include "bench/cloth_case.h"
+
+namespace nucleon::bench {
+
+RunResult runNucleonCloth(const ClothCase& c, const ClothMesh& mesh, SolverKind solver,
+                          int threads) {
+  using Clock = std::chrono::steady_clock;
+  World world;
+  SolverSettings settings;
+  settings.kind = solver;
+  settings.iterations = c.iterations;
+  settings.substeps = 1;
+  world.setSolver(settings);
+  world.setThreads(threads);
+  if (c.scene == ClothScene::Sphere) {
+    SphereCollider sphere;
+    sphere.radius = c.sphereRadius;
+    sphere.thickness = c.thickness;
+    sphere.friction = c.friction;
+    sphere.staticFriction = c.friction;
+    world.addSphereCollider(sphere);
+  }
+  world.addCloth(mesh.def);
+
+  RunResult r;
+  std::vector<Vec3> x(world.particleCount());
+  double timed = 0;
+  for (int step = 0; step < c.steps; ++step) {
+    if (step == c.warmup) world.resetProfile();
+    const auto start = Clock::now();
+    world.step(c.dt);
+    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    if (step >= c.warmup) timed += seconds;
+    const auto positions = world.positions();
+    x.assign(positions.begin(), positions.end());
+    r.peakMaxStrain = std::max(r.peakMaxStrain, measureStrain(mesh, x).max);
+  }
+  const int measured = c.steps - c.warmup;
+  r.msPerStep = timed * 1e3 / measured;
+  const StepProfile& p = world.profile();
+  r.predictMs = p.predict * 1e3 / measured;
+  r.forcesMs = p.forces * 1e3 / measured;
+  r.solveMs = p.solve * 1e3 / measured;
+  r.collisionsMs = p.collisions * 1e3 / measured;
+  r.updateMs = p.update * 1e3 / measured;
+  r.projectionsPerSecond = timed > 0 ? double(p.projections) / timed : 0;
+  r.finalStrain = measureStrain(mesh, x);
+  r.penetration = spherePenetration(c, x);
+  r.lowestY = 1e30;
+  for (const Vec3& v : x) {
+    r.lowestY = std::min(r.lowestY, double(v.y()));
+    r.finite = r.finite && std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z());
+  }
+  r.stateHash = world.stateHash();
+  return r;
+}
+
+}  // namespace nucleon::bench

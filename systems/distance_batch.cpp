@@ -1,0 +1,106 @@
+#include "systems/distance_batch.h"
+
+// The batched path is written for float state on x86-64.
+#if (defined(__x86_64__) || defined(__i386__)) && !defined(NUCLEON_DOUBLE)
+#include <immintrin.h>
+#define NUCLEON_X86 1
+#endif
+
+namespace nucleon {
+
+#if NUCLEON_X86
+
+namespace {
+
+[[gnu::target("avx2,fma")]] Index projectAvx2(const DistanceBatch& b, Index begin, Index end) {
+  const float* base = reinterpret_cast<const float*>(b.positions);
+  const __m256 tiny = _mm256_set1_ps(1e-12f), zero = _mm256_setzero_ps();
+  const __m256 inverseH2 = _mm256_set1_ps(b.inverseH2);
+  // The pairs (a0 b0 a1 b1 a2 b2 a3 b3) become (a0 a1 a2 a3 b0 b1 b2 b3).
+  const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+  alignas(32) float ax[8], ay[8], az[8], bx[8], by[8], bz[8];
+  alignas(32) int ia[8], ib[8];
+  Index k = begin;
+  for (; k + 8 <= end; k += 8) {
+    const auto* pairs = reinterpret_cast<const __m256i*>(b.particles + k);
+    const __m256i low = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(pairs), split);
+    const __m256i high = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(pairs + 1), split);
+    const __m256i a = _mm256_permute2x128_si256(low, high, 0x20);
+    const __m256i c = _mm256_permute2x128_si256(low, high, 0x31);
+    const __m256i a3 = _mm256_add_epi32(_mm256_slli_epi32(a, 1), a);  // float offset of x_a
+    const __m256i c3 = _mm256_add_epi32(_mm256_slli_epi32(c, 1), c);
+    __m256 xa = _mm256_i32gather_ps(base, a3, 4), ya = _mm256_i32gather_ps(base + 1, a3, 4),
+           za = _mm256_i32gather_ps(base + 2, a3, 4);
+    __m256 xb = _mm256_i32gather_ps(base, c3, 4), yb = _mm256_i32gather_ps(base + 1, c3, 4),
+           zb = _mm256_i32gather_ps(base + 2, c3, 4);
+    const __m256 wa = _mm256_i32gather_ps(b.inverseMass, a, 4);
+    const __m256 wb = _mm256_i32gather_ps(b.inverseMass, c, 4);
+
+    const __m256 dx = _mm256_sub_ps(xa, xb), dy = _mm256_sub_ps(ya, yb), dz = _mm256_sub_ps(za, zb);
+    const __m256 length =
+        _mm256_sqrt_ps(_mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz))));
+    const __m256 constraint = _mm256_sub_ps(length, _mm256_loadu_ps(b.rest + k));
+    const __m256 below = _mm256_cmp_ps(constraint, zero, _CMP_LT_OQ);
+    const __m256 alpha =
+        _mm256_mul_ps(_mm256_blendv_ps(_mm256_loadu_ps(b.compliance + k),
+                                       _mm256_loadu_ps(b.compressionCompliance + k), below),
+                      inverseH2);
+    const __m256 stiffness = _mm256_add_ps(wa, wb);
+    __m256 active = _mm256_and_ps(_mm256_cmp_ps(length, tiny, _CMP_GE_OQ),
+                                  _mm256_cmp_ps(stiffness, tiny, _CMP_GE_OQ));
+    if (b.unilateral) active = _mm256_and_ps(active, _mm256_cmp_ps(constraint, zero, _CMP_GT_OQ));
+    const __m256 lambda = _mm256_loadu_ps(b.lambda + k);
+    // Δλ = (−C − α̃λ) / (w_a + w_b + α̃), zero where inactive.
+    const __m256 numerator =
+        _mm256_sub_ps(_mm256_setzero_ps(), _mm256_fmadd_ps(alpha, lambda, constraint));
+    const __m256 dLambda =
+        _mm256_and_ps(_mm256_div_ps(numerator, _mm256_add_ps(stiffness, alpha)), active);
+    _mm256_storeu_ps(b.lambda + k, _mm256_add_ps(lambda, dLambda));
+    // Δλ n = Δλ (x_a − x_b)/|x_a − x_b|.
+    const __m256 scale = _mm256_and_ps(_mm256_div_ps(dLambda, _mm256_max_ps(length, tiny)), active);
+    const __m256 sa = _mm256_mul_ps(wa, scale), sb = _mm256_mul_ps(wb, scale);
+    _mm256_store_ps(ax, _mm256_fmadd_ps(sa, dx, xa));
+    _mm256_store_ps(ay, _mm256_fmadd_ps(sa, dy, ya));
+    _mm256_store_ps(az, _mm256_fmadd_ps(sa, dz, za));
+    _mm256_store_ps(bx, _mm256_fnmadd_ps(sb, dx, xb));
+    _mm256_store_ps(by, _mm256_fnmadd_ps(sb, dy, yb));
+    _mm256_store_ps(bz, _mm256_fnmadd_ps(sb, dz, zb));
+    _mm256_store_si256(reinterpret_cast<__m256i*>(ia), a);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(ib), c);
+    for (int j = 0; j < 8; ++j) {
+      if (b.inverseMass[ia[j]] != 0) b.positions[ia[j]] = Vec3(ax[j], ay[j], az[j]);
+      if (b.inverseMass[ib[j]] != 0) b.positions[ib[j]] = Vec3(bx[j], by[j], bz[j]);
+    }
+  }
+  return k;
+}
+
+bool cpuHasAvx2Fma() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+}
+
+}  // namespace
+
+bool distanceBatchesAvailable() {
+  static const bool available = cpuHasAvx2Fma();  // a property of the CPU, read once
+  return available;
+}
+
+Index projectDistanceBatches(const DistanceBatch& batch, Index begin, Index end) {
+  return distanceBatchesAvailable() ? projectAvx2(batch, begin, end) : begin;
+}
+
+#else
+
+bool distanceBatchesAvailable() {
+  return false;
+}
+
+Index projectDistanceBatches(const DistanceBatch&, Index begin, Index) {
+  return begin;
+}
+
+#endif
+
+}  // namespace nucleon

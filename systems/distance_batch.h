@@ -1,0 +1,36 @@
+// Distance-type constraints (stretch, tether) projected eight at a time with AVX2 and FMA, for
+// the colored Gauss–Seidel sweep: within a color no two constraints share a free particle, so a
+// batch can gather its particles, project all eight at once and scatter the results. The
+// projection is the undamped XPBD update of constraint_kernels.h (Macklin et al. 2016, eq. 18):
+//   C = |x_a − x_b| − L,  Δλ = (−C − α̃λ) / (w_a + w_b + α̃),  x_a += w_a Δλ n,  x_b −= w_b Δλ n,
+// with n = (x_a − x_b)/|x_a − x_b| and α̃ the stretch or compression compliance over h² by the
+// sign of C. Results equal the scalar path's up to floating-point rounding (FMA contraction).
+#pragma once
+
+#include <array>
+
+#include "nucleon/types.h"
+
+namespace nucleon {
+
+struct DistanceBatch {
+  const std::array<Index, 2>* particles = nullptr;
+  const Real* rest = nullptr;
+  const Real* compliance = nullptr;
+  const Real* compressionCompliance = nullptr;
+  Real* lambda = nullptr;
+  Vec3* positions = nullptr;
+  const Real* inverseMass = nullptr;
+  Real inverseH2 = 0;       // 1/h²
+  bool unilateral = false;  // tethers: only C > 0 is corrected
+};
+
+// True when this build and CPU run the batched path (float solver state, AVX2 and FMA).
+bool distanceBatchesAvailable();
+
+// Projects constraints begin, begin+1, … in batches of eight, none of which may share a free
+// particle (pins, w = 0, are read but never written). Returns the first constraint it left to
+// the caller (fewer than eight remain, or the batched path is unavailable: then `begin`).
+Index projectDistanceBatches(const DistanceBatch& batch, Index begin, Index end);
+
+}  // namespace nucleon
