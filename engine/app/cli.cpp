@@ -1,4 +1,6 @@
 #include "engine/app/cli.h"
+#include "engine/app/bench_command.h"
+#include "engine/app/cli_args.h"
 
 #include <unistd.h>
 
@@ -26,16 +28,17 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-// Thrown for a command line or input that cannot be run; the message is the whole error line.
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
+using cli::hex16;
+using cli::parseInt;
+using cli::UsageError;
 
 const char* kUsage =
     "usage: nucleon run SCENE.json [--frames N] [--substeps S] [--threads T]\n"
     "                              [--solver gauss-seidel|jacobi|colored-gs|multigrid]\n"
     "                              [--iterations K] [--out DIR] [--stats FILE.json]\n"
     "                              [--render FILE.png] [--quiet]\n"
+    "       nucleon bench SCENE|NAME ... [--threads 1,2,..] [--solver a,b] [--iterations K]\n"
+    "                              [--steps N] [--warmup W] [--repeats R] [--csv FILE]\n"
     "       nucleon scenes\n"
     "       nucleon --help | nucleon CMD --help\n";
 
@@ -52,20 +55,6 @@ const char* kRunHelp =
     "  --render FILE     write a PNG picture of the last frame\n"
     "  --quiet           no progress output\n"
     "Flags override the scene file, which overrides the defaults. Bad input: exit code 2.\n";
-
-int parseInt(const std::string& flag, const std::string& value, int lo, int hi) {
-  std::size_t used = 0;
-  long long x = 0;
-  try {
-    x = std::stoll(value, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != value.size() || value.empty() || x < lo || x > hi)
-    throw UsageError(flag + " expects an integer in [" + std::to_string(lo) + ", " +
-                     std::to_string(hi) + "], got '" + value + "'");
-  return static_cast<int>(x);
-}
 
 struct RunOptions {
   std::string scene;
@@ -118,12 +107,6 @@ void checkWritable(const std::string& file, const char* flag) {
   const fs::path parent = fs::path(file).parent_path();
   if (!parent.empty() && !fs::is_directory(parent))
     throw UsageError(std::string(flag) + ": folder '" + parent.string() + "' does not exist");
-}
-
-std::string hex16(std::uint64_t h) {
-  std::ostringstream s;
-  s << std::hex << std::setw(16) << std::setfill('0') << h;
-  return s.str();
 }
 
 // Progress on stderr: a redrawn bar on a terminal, a plain line per second otherwise.
@@ -305,6 +288,10 @@ int runCommandLine(const std::vector<std::string>& args, std::ostream& out, std:
     if (command == "run") {
       if (help) return out << kRunHelp, 0;
       return runScene(args, out, err);
+    }
+    if (command == "bench") {
+      if (help) return out << kBenchHelp, 0;
+      return runBench(args, out, err);
     }
     if (command == "scenes") {
       if (help) return out << "nucleon scenes: lists the bundled scenes, one line each\n", 0;

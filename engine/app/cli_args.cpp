@@ -1,0 +1,43 @@
+#include "engine/app/cli_args.h"
+
+#include <iomanip>
+#include <sstream>
+
+namespace nucleon::cli {
+
+int parseInt(const std::string& flag, const std::string& value, int lo, int hi) {
+  std::size_t used = 0;
+  long long x = 0;
+  try {
+    x = std::stoll(value, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != value.size() || value.empty() || x < lo || x > hi)
+    throw UsageError(flag + " expects an integer in [" + std::to_string(lo) + ", " +
+                     std::to_string(hi) + "], got '" + value + "'");
+  return static_cast<int>(x);
+}
+
+std::vector<std::string> splitList(const std::string& value) {
+  std::vector<std::string> out;
+  std::stringstream in(value);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+std::vector<int> parseIntList(const std::string& flag, const std::string& value, int lo, int hi) {
+  std::vector<int> out;
+  for (const std::string& item : splitList(value)) out.push_back(parseInt(flag, item, lo, hi));
+  if (out.empty()) throw UsageError(flag + " expects a comma-separated list, got '" + value + "'");
+  return out;
+}
+
+std::string hex16(std::uint64_t value) {
+  std::ostringstream s;
+  s << std::hex << std::setw(16) << std::setfill('0') << value;
+  return s.str();
+}
+
+}  // namespace nucleon::cli
