@@ -148,7 +148,8 @@ Summary summarise(std::string engine, std::string solver, int threads,
 void writeCsvHeader(std::ostream& out) {
   out << "scene,bending,n,iterations,engine,solver,threads,repeats,ms_per_step,ms_min,"
          "forces_ms,predict_ms,solve_ms,collisions_ms,update_ms,projections_per_s,max_strain,"
-         "mean_strain,peak_max_strain,penetration_m,lowest_y,finite,state_hash\n";
+         "mean_strain,peak_max_strain,average_mean_strain,penetration_m,lowest_y,finite,state_"
+         "hash\n";
 }
 
 void writeCsvRow(std::ostream& out, const ClothCase& c, int repeats, const Summary& s) {
@@ -160,8 +161,9 @@ void writeCsvRow(std::ostream& out, const ClothCase& c, int repeats, const Summa
       << ',' << s.medianMs << ',' << s.minMs << ',' << r.forcesMs << ',' << r.predictMs << ','
       << r.solveMs << ',' << r.collisionsMs << ',' << r.updateMs << ',' << r.projectionsPerSecond
       << ',' << r.finalStrain.max << ',' << r.finalStrain.mean << ',' << r.peakMaxStrain << ','
-      << (c.scene == ClothScene::Sphere ? r.penetration : 0.0) << ',' << r.lowestY << ','
-      << (r.finite ? 1 : 0) << ',' << (s.engine == "nucleon" ? hash : "") << '\n';
+      << r.averageMeanStrain << ',' << (c.scene == ClothScene::Sphere ? r.penetration : 0.0) << ','
+      << r.lowestY << ',' << (r.finite ? 1 : 0) << ',' << (s.engine == "nucleon" ? hash : "")
+      << '\n';
 }
 
 int run(const Options& o) {

@@ -76,7 +76,9 @@ RunResult runBulletCloth(const ClothCase& c, const ClothMesh& mesh) {
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     if (step >= c.warmup) timed += seconds;
     read();
-    r.peakMaxStrain = std::max(r.peakMaxStrain, measureStrain(mesh, x).max);
+    const StrainStats strain = measureStrain(mesh, x);
+    r.peakMaxStrain = std::max(r.peakMaxStrain, strain.max);
+    r.averageMeanStrain += strain.mean / c.steps;
   }
   r.msPerStep = timed * 1e3 / (c.steps - c.warmup);
   r.finalStrain = measureStrain(mesh, x);

@@ -58,6 +58,7 @@ struct RunResult {
   double projectionsPerSecond = 0;  // nucleon only
   StrainStats finalStrain;          // after the last step
   double peakMaxStrain = 0;         // largest max strain seen after any step
+  double averageMeanStrain = 0;     // mean strain averaged over all steps (less phase-dependent)
   double penetration = 0;           // sphere scene: deepest vertex inside the sphere
   double lowestY = 0;
   std::uint64_t stateHash = 0;  // nucleon only

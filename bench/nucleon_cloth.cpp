@@ -39,7 +39,9 @@ RunResult runNucleonCloth(const ClothCase& c, const ClothMesh& mesh, SolverKind 
     if (step >= c.warmup) timed += seconds;
     const auto positions = world.positions();
     x.assign(positions.begin(), positions.end());
-    r.peakMaxStrain = std::max(r.peakMaxStrain, measureStrain(mesh, x).max);
+    const StrainStats strain = measureStrain(mesh, x);
+    r.peakMaxStrain = std::max(r.peakMaxStrain, strain.max);
+    r.averageMeanStrain += strain.mean / c.steps;
   }
   const int measured = c.steps - c.warmup;
   r.msPerStep = timed * 1e3 / measured;

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages nucleon needs to build, test and render; skips the package
 # manager entirely when everything is already there. Run as root (or with sudo available).
+# `deps.sh bench` adds what the benchmark script uses: Bullet (the peer in the cloth comparison)
+# and gnuplot (the plots).
 set -euo pipefail
 
 packages=(
@@ -9,6 +11,9 @@ packages=(
   libgtest-dev libbenchmark-dev
   nlohmann-json3-dev libtinyobjloader-dev libstb-dev
 )
+if [[ "${1:-}" == "bench" ]]; then
+  packages+=(libbullet-dev gnuplot-nox)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -50,14 +50,15 @@ namespace {
                                   _mm256_cmp_ps(stiffness, tiny, _CMP_GE_OQ));
     if (b.unilateral) active = _mm256_and_ps(active, _mm256_cmp_ps(constraint, zero, _CMP_GT_OQ));
     const __m256 lambda = _mm256_loadu_ps(b.lambda + k);
-    // Δλ = (−C − α̃λ) / (w_a + w_b + α̃), zero where inactive.
+    // Δλ = (−C − α̃λ) / (w_a + w_b + α̃) and Δλ n = Δλ (x_a − x_b)/|x_a − x_b| share one
+    // division: scale = (−C − α̃λ) / ((w_a + w_b + α̃) |x_a − x_b|), Δλ = scale |x_a − x_b|.
     const __m256 numerator =
         _mm256_sub_ps(_mm256_setzero_ps(), _mm256_fmadd_ps(alpha, lambda, constraint));
-    const __m256 dLambda =
-        _mm256_and_ps(_mm256_div_ps(numerator, _mm256_add_ps(stiffness, alpha)), active);
-    _mm256_storeu_ps(b.lambda + k, _mm256_add_ps(lambda, dLambda));
-    // Δλ n = Δλ (x_a − x_b)/|x_a − x_b|.
-    const __m256 scale = _mm256_and_ps(_mm256_div_ps(dLambda, _mm256_max_ps(length, tiny)), active);
+    const __m256 scale = _mm256_and_ps(
+        _mm256_div_ps(numerator,
+                      _mm256_mul_ps(_mm256_add_ps(stiffness, alpha), _mm256_max_ps(length, tiny))),
+        active);
+    _mm256_storeu_ps(b.lambda + k, _mm256_fmadd_ps(scale, length, lambda));
     const __m256 sa = _mm256_mul_ps(wa, scale), sb = _mm256_mul_ps(wb, scale);
     _mm256_store_ps(ax, _mm256_fmadd_ps(sa, dx, xa));
     _mm256_store_ps(ay, _mm256_fmadd_ps(sa, dy, ya));
@@ -67,9 +68,12 @@ namespace {
     _mm256_store_ps(bz, _mm256_fnmadd_ps(sb, dz, zb));
     _mm256_store_si256(reinterpret_cast<__m256i*>(ia), a);
     _mm256_store_si256(reinterpret_cast<__m256i*>(ib), c);
+    // Bit j set: that end of constraint j is free and is written back.
+    const int freeA = _mm256_movemask_ps(_mm256_cmp_ps(wa, zero, _CMP_NEQ_OQ));
+    const int freeB = _mm256_movemask_ps(_mm256_cmp_ps(wb, zero, _CMP_NEQ_OQ));
     for (int j = 0; j < 8; ++j) {
-      if (b.inverseMass[ia[j]] != 0) b.positions[ia[j]] = Vec3(ax[j], ay[j], az[j]);
-      if (b.inverseMass[ib[j]] != 0) b.positions[ib[j]] = Vec3(bx[j], by[j], bz[j]);
+      if (freeA >> j & 1) b.positions[ia[j]] = Vec3(ax[j], ay[j], az[j]);
+      if (freeB >> j & 1) b.positions[ib[j]] = Vec3(bx[j], by[j], bz[j]);
     }
   }
   return k;
