@@ -5,6 +5,8 @@
 //  - BM_Residual: the strain left after k sweeps of the stretch family from the same predicted
 //    state, per backend (convergence per sweep; with the time, convergence per millisecond).
 //  - BM_ClothStep: a whole step of the hanging cloth.
+//  - BM_Contacts: projecting every particle of an n² cloth out of the ground plane or a sphere
+//    (the collisions stage; nucleon has no mesh broad phase or CCD yet to benchmark).
 #include <benchmark/benchmark.h>
 #include <tbb/task_arena.h>
 
@@ -14,8 +16,10 @@
 #include "engine/src/world_state.h"
 #include "nucleon/shapes.h"
 #include "systems/constraint_sweeps.h"
+#include "systems/ground_contact.h"
 #include "systems/integrate.h"
 #include "systems/measures.h"
+#include "systems/sphere_contact.h"
 
 namespace {
 
@@ -23,10 +27,10 @@ using namespace nucleon;
 
 constexpr Real kH = Real(1) / 60;
 
-enum class Subject { Stretch, Shear, ClothBend, Volume, CurveBend, Twist };
+enum class Subject { Stretch, Shear, ClothBend, Volume, CurveBend, Twist, Tether };
 const char* subjectName(Subject s) {
-  constexpr const char* names[] = {"stretch", "shear",      "cloth-bend",
-                                   "volume",  "curve-bend", "twist"};
+  constexpr const char* names[] = {"stretch",    "shear", "cloth-bend", "volume",
+                                   "curve-bend", "twist", "tether"};
   return names[static_cast<int>(s)];
 }
 
@@ -115,13 +119,16 @@ void BM_Sweep(benchmark::State& state) {
     case Subject::Twist:
       sweepLoop<DihedralKernel>(state, pools.twist, s.particles, kind, threads);
       break;
+    case Subject::Tether:
+      sweepLoop<TetherKernel>(state, pools.tether, s.particles, kind, threads);
+      break;
   }
   state.SetLabel(std::string(subjectName(subject)) + " " + toString(kind));
 }
 
 // Every subject × size × backend, at 1 and 2 threads (Gauss–Seidel is sequential: 1 only).
 void sweepArguments(benchmark::internal::Benchmark* b) {
-  for (int subject = 0; subject <= static_cast<int>(Subject::Twist); ++subject)
+  for (int subject = 0; subject <= static_cast<int>(Subject::Tether); ++subject)
     for (int n : {64, 128, 256})
       for (SolverKind kind :
            {SolverKind::GaussSeidel, SolverKind::Jacobi, SolverKind::ColoredGaussSeidel})
@@ -189,6 +196,48 @@ BENCHMARK(BM_ClothStep)
                    {1, 2}})
     ->ArgNames({"n", "solver", "threads"})
     ->Unit(benchmark::kMillisecond);
+
+// Contact projection of an n² cloth lying across the contact surface (a third of it inside),
+// restored before every iteration outside the timing.
+void BM_Contacts(benchmark::State& state) {
+  const bool sphere = state.range(0) == 1;
+  const int n = static_cast<int>(state.range(1));
+  const int threads = static_cast<int>(state.range(2));
+  GridSpec spec;
+  spec.resolution = {n, n};
+  spec.center = Vec3(0, Real(0.45), 0);
+  World world;
+  world.addCloth(gridCloth(spec));
+  world.step(kH);  // pools sized, topology built
+  WorldState& s = world.impl().state;
+  s.particles.p = s.particles.x = world.impl().state.particles.restPosition;
+  const std::vector<Vec3> start = s.particles.p;
+  GroundPlane ground;
+  ground.enabled = true;
+  ground.height = Real(0.45);
+  SphereCollider ball;
+  const std::vector<SphereCollider> spheres = {ball};
+  tbb::task_arena arena(threads);
+  for (auto _ : state) {
+    state.PauseTiming();
+    s.particles.p = start;
+    for (std::size_t i = 0; i < start.size(); i += 3) s.particles.p[i].y() -= Real(0.05);
+    state.ResumeTiming();
+    arena.execute([&] {
+      if (sphere)
+        projectSpheres(s.particles, spheres);
+      else
+        projectGround(s.particles, ground);
+    });
+  }
+  state.counters["particles/s"] = benchmark::Counter(static_cast<double>(start.size()),
+                                                     benchmark::Counter::kIsIterationInvariantRate);
+  state.SetLabel(sphere ? "sphere" : "ground");
+}
+BENCHMARK(BM_Contacts)
+    ->ArgsProduct({{0, 1}, {64, 128, 256}, {1, 2}})
+    ->ArgNames({"shape", "n", "threads"})
+    ->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 
