@@ -25,6 +25,35 @@ bool bulletAvailable() {
   return true;
 }
 
+namespace {
+
+// Bullet's bending links: one link between every two nodes exactly two links apart, what
+// btSoftBody::generateBendingConstraints(2) adds. That function builds a dense node×node distance
+// table, which overflows int beyond 46 340 nodes (it crashes at 256²); the same set is found here
+// by walking two rings of the edge graph.
+void appendBendingLinks(btSoftBody& body, const ClothMesh& mesh) {
+  const std::size_t n = mesh.def.vertices.size();
+  std::vector<std::vector<int>> neighbours(n);
+  for (const auto& e : mesh.edges) {
+    neighbours[e[0]].push_back(int(e[1]));
+    neighbours[e[1]].push_back(int(e[0]));
+  }
+  std::vector<int> mark(n, -1);  // mark[k] = i: k is i itself or a neighbour of i
+  for (int i = 0; i < int(n); ++i) {
+    mark[i] = i;
+    for (int j : neighbours[i]) mark[j] = i;
+    for (int j : neighbours[i])
+      for (int k : neighbours[j])
+        if (k > i && mark[k] != i) {
+          mark[k] = i;  // once per pair
+          body.appendLink(i, k, body.m_materials[0]);
+          body.m_links[body.m_links.size() - 1].m_bbending = 1;
+        }
+  }
+}
+
+}  // namespace
+
 RunResult runBulletCloth(const ClothCase& c, const ClothMesh& mesh) {
   using Clock = std::chrono::steady_clock;
   btSoftBodyRigidBodyCollisionConfiguration configuration;
@@ -48,7 +77,7 @@ RunResult runBulletCloth(const ClothCase& c, const ClothMesh& mesh) {
   auto* body = new btSoftBody(&info, int(nodes.size()), nodes.data(), masses.data());
   for (const auto& e : mesh.edges) body->appendLink(int(e[0]), int(e[1]));
   for (const auto& t : mesh.def.triangles) body->appendFace(int(t[0]), int(t[1]), int(t[2]));
-  if (c.bending) body->generateBendingConstraints(2, body->m_materials[0]);
+  if (c.bending) appendBendingLinks(*body, mesh);
   body->m_cfg.piterations = c.iterations;
   body->m_cfg.viterations = 0;
   body->m_cfg.diterations = 0;
