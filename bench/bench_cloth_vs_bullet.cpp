@@ -121,13 +121,7 @@ Options parse(int argc, char** argv) {
   return o;
 }
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-// The figures of one engine on one case: the last repeat's result with the median step time.
+// The figures of one engine on one case.
 struct Summary {
   std::string engine, solver;
   int threads = 1;
@@ -136,13 +130,14 @@ struct Summary {
 };
 
 Summary summarise(std::string engine, std::string solver, int threads,
-                  const std::vector<RunResult>& runs) {
-  Summary s{std::move(engine), std::move(solver), threads, runs.back(), 0, 0};
-  std::vector<double> ms;
-  for (const RunResult& r : runs) ms.push_back(r.msPerStep);
-  s.medianMs = median(ms);
-  s.minMs = *std::min_element(ms.begin(), ms.end());
-  return s;
+                  std::vector<RunResult> runs) {
+  // The run with the median step time supplies every figure, so that its stage profile adds up
+  // to the step time shown beside it.
+  std::sort(runs.begin(), runs.end(),
+            [](const RunResult& a, const RunResult& b) { return a.msPerStep < b.msPerStep; });
+  const RunResult& middle = runs[runs.size() / 2];
+  return {std::move(engine), std::move(solver),     threads, middle,
+          middle.msPerStep,  runs.front().msPerStep};
 }
 
 void writeCsvHeader(std::ostream& out) {

@@ -4,6 +4,8 @@
 // any, serially at the end.
 #pragma once
 
+#include <algorithm>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -32,10 +34,13 @@ __attribute__((flatten)) void forEachColor(const ConstraintColoring& coloring, s
   }
 }
 
-// The same loop by ranges: projectRange(begin, end) for pieces of a color (positions in coloring
-// order; no two constraints of a piece share a free particle), projectOne(c) for the overflow.
+// The same loop by ranges for batched kernels: projectRange(begin, end) for pieces of a color
+// (positions in coloring order; no two constraints of a piece share a free particle), whose
+// starts are `batch` constraints apart from the color's start whatever the thread count, so
+// that which constraints a batch holds, and hence the rounding, never depends on the
+// partitioning; projectOne(c) for the overflow range.
 template <class ProjectRange, class ProjectOne>
-void forEachColorRange(const ConstraintColoring& coloring, std::size_t grain,
+void forEachColorRange(const ConstraintColoring& coloring, std::size_t grain, Index batch,
                        ProjectRange&& projectRange, ProjectOne&& projectOne) {
   for (std::size_t k = 0; k < coloring.colorCount(); ++k) {
     const Index begin = coloring.colorOffset[k], end = coloring.colorOffset[k + 1];
@@ -43,9 +48,12 @@ void forEachColorRange(const ConstraintColoring& coloring, std::size_t grain,
       for (Index o = begin; o < end; ++o) projectOne(coloring.order[o]);
       continue;
     }
+    const Index batches = (end - begin + batch - 1) / batch;
     tbb::parallel_for(
-        tbb::blocked_range<Index>(begin, end, grain),
-        [&](const tbb::blocked_range<Index>& r) { projectRange(r.begin(), r.end()); });
+        tbb::blocked_range<Index>(0, batches, std::max<std::size_t>(1, grain / batch)),
+        [&](const tbb::blocked_range<Index>& r) {
+          projectRange(begin + r.begin() * batch, std::min(end, begin + r.end() * batch));
+        });
   }
 }
 

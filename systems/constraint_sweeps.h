@@ -124,30 +124,34 @@ void solveJacobi(ConstraintPool<N>& pool, const SweepContext& context) {
 template <class Kernel, std::size_t N>
 void solveColored(ConstraintPool<N>& pool, const SweepContext& context) {
   const Real invH = 1 / context.h;
+  auto projectOne = [&](Index c) {
+    if (sweep_detail::takesPart(pool, c, context))
+      sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH);
+  };
   if constexpr (std::is_base_of_v<DistanceKernel, Kernel>) {
     // Undamped distance constraints stored in color order: eight at a time (distance_batch.h).
     if (!context.objectRuns && pool.undamped && pool.coloring.inPlace &&
         distanceBatchesAvailable()) {
-      ParticlePool& ps = context.particles;
-      const DistanceBatch batch{pool.particles.data(), pool.rest.data(), pool.compliance.data(),
-                                pool.compressionCompliance.data(), pool.lambda.data(), ps.p.data(),
-                                ps.w.data(), invH * invH, requires {requires Kernel::kUnilateral;
+      DistanceBatch batch;
+      batch.particles = pool.particles.data();
+      batch.rest = pool.rest.data();
+      batch.compliance = pool.compliance.data();
+      batch.compressionCompliance = pool.compressionCompliance.data();
+      batch.lambda = pool.lambda.data();
+      batch.positions = context.particles.p.data();
+      batch.inverseMass = context.particles.w.data();
+      batch.inverseH2 = invH * invH;
+      batch.unilateral = std::is_same_v<Kernel, TetherKernel>;
+      forEachColorRange(
+          pool.coloring, sweep_detail::kGrain, kDistanceBatchSize,
+          [&](Index begin, Index end) {
+            for (Index c = projectDistanceBatches(batch, begin, end); c < end; ++c) projectOne(c);
+          },
+          projectOne);
+      return;
     }
-  };
-  auto projectOne = [&](Index c) { sweep_detail::projectInPlace<Kernel>(pool, c, ps, invH); };
-  forEachColorRange(
-      pool.coloring, sweep_detail::kGrain,
-      [&](Index begin, Index end) {
-        for (Index c = projectDistanceBatches(batch, begin, end); c < end; ++c) projectOne(c);
-      },
-      projectOne);
-  return;
-}
-}  // namespace nucleon
-forEachColor(pool.coloring, sweep_detail::kGrain, [&](Index c) {
-  if (sweep_detail::takesPart(pool, c, context))
-    sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH);
-});
+  }
+  forEachColor(pool.coloring, sweep_detail::kGrain, projectOne);
 }
 
 // Runs one sweep of the given backend.

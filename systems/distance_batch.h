@@ -13,6 +13,8 @@
 
 namespace nucleon {
 
+constexpr Index kDistanceBatchSize = 8;
+
 struct DistanceBatch {
   const std::array<Index, 2>* particles = nullptr;
   const Real* rest = nullptr;
