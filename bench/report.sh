@@ -163,6 +163,7 @@ set title "Hanging cloth, K = 10 iterations: ms per step (nucleon $(awk -F, '$5 
 set xlabel "N (cloth of N×N vertices)"
 set ylabel "ms / step"
 set logscale xy
+set xrange [50:330]
 set xtics (64, 128, 256)
 plot $(plot_series n_ .dat)
 
@@ -170,6 +171,7 @@ set output "$dir/strain_vs_iterations.png"
 set title "Hanging cloth: max strain after 2 s against iterations"
 set xlabel "K (iterations per step)"
 set ylabel "max strain |L/L0 - 1|"
+set logscale x
 set xtics (4, 10, 20)
 set xrange [3.5:23]
 set key outside right
