@@ -110,13 +110,7 @@ RunResult runBulletCloth(const ClothCase& c, const ClothMesh& mesh) {
     r.averageMeanStrain += strain.mean / c.steps;
   }
   r.msPerStep = timed * 1e3 / (c.steps - c.warmup);
-  r.finalStrain = measureStrain(mesh, x);
-  r.penetration = spherePenetration(c, x);
-  r.lowestY = 1e30;
-  for (const Vec3& v : x) {
-    r.lowestY = std::min(r.lowestY, double(v.y()));
-    r.finite = r.finite && std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z());
-  }
+  finishRun(c, mesh, x, r);
   if (c.scene == ClothScene::Sphere) world.removeRigidBody(&sphere);
   world.removeSoftBody(body);
   delete body;

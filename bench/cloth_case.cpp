@@ -60,4 +60,15 @@ double spherePenetration(const ClothCase& c, const std::vector<Vec3>& positions)
   return deepest;
 }
 
+void finishRun(const ClothCase& c, const ClothMesh& mesh, const std::vector<Vec3>& positions,
+               RunResult& result) {
+  result.finalStrain = measureStrain(mesh, positions);
+  result.penetration = spherePenetration(c, positions);
+  result.lowestY = 1e30;
+  for (const Vec3& v : positions) {
+    result.lowestY = std::min(result.lowestY, double(v.y()));
+    result.finite = result.finite && v.allFinite();
+  }
+}
+
 }  // namespace nucleon::bench

@@ -65,6 +65,11 @@ struct RunResult {
   bool finite = true;
 };
 
+// Fills the end-of-run figures (final strain, penetration, lowest point, finiteness) from the
+// positions after the last step.
+void finishRun(const ClothCase& c, const ClothMesh& mesh, const std::vector<Vec3>& positions,
+               RunResult& result);
+
 RunResult runNucleonCloth(const ClothCase& c, const ClothMesh& mesh, SolverKind solver,
                           int threads);
 

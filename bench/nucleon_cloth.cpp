@@ -52,13 +52,7 @@ RunResult runNucleonCloth(const ClothCase& c, const ClothMesh& mesh, SolverKind 
   r.collisionsMs = p.collisions * 1e3 / measured;
   r.updateMs = p.update * 1e3 / measured;
   r.projectionsPerSecond = timed > 0 ? double(p.projections) / timed : 0;
-  r.finalStrain = measureStrain(mesh, x);
-  r.penetration = spherePenetration(c, x);
-  r.lowestY = 1e30;
-  for (const Vec3& v : x) {
-    r.lowestY = std::min(r.lowestY, double(v.y()));
-    r.finite = r.finite && std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z());
-  }
+  finishRun(c, mesh, x, r);
   r.stateHash = world.stateHash();
   return r;
 }
