@@ -15,35 +15,15 @@
 #include <vector>
 
 #include "bench/cloth_case.h"
+#include "engine/app/cli_args.h"
 
 namespace nucleon::bench {
 namespace {
 
-std::vector<std::string> splitList(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream in(text);
-  for (std::string item; std::getline(in, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
+using cli::splitList;
 
 std::vector<int> intList(const std::string& flag, const std::string& text, int lo, int hi) {
-  std::vector<int> out;
-  for (const std::string& item : splitList(text)) {
-    std::size_t used = 0;
-    int value = 0;
-    try {
-      value = std::stoi(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used != item.size() || value < lo || value > hi)
-      throw std::invalid_argument(flag + ": expected integers in [" + std::to_string(lo) + ", " +
-                                  std::to_string(hi) + "], got '" + item + "'");
-    out.push_back(value);
-  }
-  if (out.empty()) throw std::invalid_argument(flag + ": empty list");
-  return out;
+  return cli::parseIntList(flag, text, lo, hi);
 }
 
 struct Options {
