@@ -20,11 +20,8 @@
 namespace nucleon::bench {
 namespace {
 
+using cli::parseIntList;
 using cli::splitList;
-
-std::vector<int> intList(const std::string& flag, const std::string& text, int lo, int hi) {
-  return cli::parseIntList(flag, text, lo, hi);
-}
 
 struct Options {
   std::vector<int> resolutions = {64, 128, 256};
@@ -49,9 +46,9 @@ Options parse(int argc, char** argv) {
       return argv[++i];
     };
     if (a == "--n") {
-      o.resolutions = intList(a, value(), 2, 2048);
+      o.resolutions = parseIntList(a, value(), 2, 2048);
     } else if (a == "--iterations") {
-      o.iterations = intList(a, value(), 1, 1000);
+      o.iterations = parseIntList(a, value(), 1, 1000);
     } else if (a == "--scenes") {
       o.scenes.clear();
       for (const std::string& s : splitList(value())) {
@@ -81,13 +78,13 @@ Options parse(int argc, char** argv) {
         o.solvers.push_back(kind);
       }
     } else if (a == "--threads") {
-      o.threads = intList(a, value(), 0, 4096).front();
+      o.threads = parseIntList(a, value(), 0, 4096).front();
     } else if (a == "--repeats") {
-      o.repeats = intList(a, value(), 1, 1000).front();
+      o.repeats = parseIntList(a, value(), 1, 1000).front();
     } else if (a == "--steps") {
-      o.steps = intList(a, value(), 2, 100000).front();
+      o.steps = parseIntList(a, value(), 2, 100000).front();
     } else if (a == "--warmup") {
-      o.warmup = intList(a, value(), 0, 100000).front();
+      o.warmup = parseIntList(a, value(), 0, 100000).front();
     } else if (a == "--csv") {
       o.csv = value();
     } else if (a == "--no-bullet") {

@@ -4,8 +4,8 @@
 // default material (linear stiffness kLST = 1: hard), optionally Bullet's bending links
 // (generateBendingConstraints(2)), K position iterations, no velocity or drift iterations.
 // stepSimulation(dt, 0) advances by exactly dt in one step.
+#include <algorithm>
 #include <chrono>
-#include <cmath>
 
 #include "bench/cloth_case.h"
 

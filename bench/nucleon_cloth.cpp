@@ -1,8 +1,8 @@
 // The comparison cloth in nucleon: the shared mesh, hard stretch (compliance 0) on every edge,
 // K sweeps per substep, one substep, the engine's defaults otherwise (tethers included: they are
 // part of how nucleon holds a pinned cloth and are counted in its projections and time).
+#include <algorithm>
 #include <chrono>
-#include <cmath>
 
 #include "bench/cloth_case.h"
 

@@ -17,27 +17,34 @@ double projectContacts(ParticlePool& particles, const ContactSurfaces& contacts)
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// Calls f(pool) for each pool a sweep of `family` visits.
-template <typename F>
-void forFamilyPools(ConstraintFamily family, const ConstraintPools& pools, F&& f) {
+template <class Kernel>
+struct KernelTag {
+  using type = Kernel;
+};
+
+// Calls f(pool, KernelTag<Kernel>{}) for each pool a sweep of `family` visits, with the kernel
+// that projects it: the one place that maps families to pools and kernels.
+template <class Pools, class F>
+void forFamilyPools(ConstraintFamily family, Pools& pools, F&& f) {
   switch (family) {
     case ConstraintFamily::Stretch:
-      f(pools.stretch);
+      f(pools.stretch, KernelTag<DistanceKernel>{});
       break;
     case ConstraintFamily::Shear:
-      f(pools.shear);
+      f(pools.shear, KernelTag<AngleKernel>{});
       break;
     case ConstraintFamily::Bend:
-      f(pools.bend), f(pools.curveBend);
+      f(pools.bend, KernelTag<DihedralKernel>{});
+      f(pools.curveBend, KernelTag<AngleKernel>{});
       break;
     case ConstraintFamily::Twist:
-      f(pools.twist);
+      f(pools.twist, KernelTag<DihedralKernel>{});
       break;
     case ConstraintFamily::Volume:
-      f(pools.volume);
+      f(pools.volume, KernelTag<VolumeKernel>{});
       break;
     case ConstraintFamily::Tether:
-      f(pools.tether);
+      f(pools.tether, KernelTag<TetherKernel>{});
       break;
   }
 }
@@ -52,27 +59,9 @@ double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const S
   for (const SweepOp& op : plan.ops) {
     context.objectRuns =
         op.objectRunsOffset < 0 ? nullptr : plan.objectRuns.data() + op.objectRunsOffset;
-    switch (op.family) {
-      case ConstraintFamily::Stretch:
-        solveSweep<DistanceKernel>(kind, pools.stretch, context);
-        break;
-      case ConstraintFamily::Shear:
-        solveSweep<AngleKernel>(kind, pools.shear, context);
-        break;
-      case ConstraintFamily::Bend:
-        solveSweep<DihedralKernel>(kind, pools.bend, context);
-        solveSweep<AngleKernel>(kind, pools.curveBend, context);
-        break;
-      case ConstraintFamily::Twist:
-        solveSweep<DihedralKernel>(kind, pools.twist, context);
-        break;
-      case ConstraintFamily::Volume:
-        solveSweep<VolumeKernel>(kind, pools.volume, context);
-        break;
-      case ConstraintFamily::Tether:
-        solveSweep<TetherKernel>(kind, pools.tether, context);
-        break;
-    }
+    forFamilyPools(op.family, pools, [&](auto& pool, auto kernel) {
+      solveSweep<typename decltype(kernel)::type>(kind, pool, context);
+    });
     if (op.endsRound && contacts.any()) contactSeconds += projectContacts(particles, contacts);
   }
   if (plan.ops.empty() && contacts.any()) contactSeconds += projectContacts(particles, contacts);
@@ -85,7 +74,7 @@ std::uint64_t countProjections(const ConstraintPools& pools, const ParticlePool&
   for (const SweepOp& op : plan.ops) {
     const std::uint8_t* runs =
         op.objectRunsOffset < 0 ? nullptr : plan.objectRuns.data() + op.objectRunsOffset;
-    forFamilyPools(op.family, pools, [&](const auto& pool) {
+    forFamilyPools(op.family, pools, [&](const auto& pool, auto) {
       if (!runs) {
         total += pool.size();
         return;
