@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "components/constraint_graph.h"
+#include "nucleon/schedule.h"
 #include "nucleon/types.h"
-#include "nucleon/world.h"
 
 namespace nucleon {
 

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "components/simplicial_complex.h"
-#include "nucleon/world.h"
+#include "nucleon/object_def.h"
 
 namespace nucleon {
 

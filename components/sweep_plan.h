@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "nucleon/world.h"
+#include "nucleon/schedule.h"
 
 namespace nucleon {
 

@@ -17,7 +17,7 @@
 
 #include "components/constraint_pool.h"
 #include "components/particles.h"
-#include "nucleon/world.h"
+#include "nucleon/solver_settings.h"
 #include "systems/colored_sweep.h"
 #include "systems/constraint_kernels.h"
 #include "systems/distance_batch.h"

@@ -4,16 +4,15 @@
 #include <chrono>
 
 #include "systems/constraint_sweeps.h"
-#include "systems/ground_contact.h"
-#include "systems/sphere_contact.h"
+#include "systems/particle_contacts.h"
 
 namespace nucleon {
 namespace {
 
-double projectContacts(ParticlePool& particles, const ContactSurfaces& contacts) {
+double timedContacts(ContactPool& contacts, const ColliderPool& colliders, ParticlePool& particles,
+                     SolverKind kind) {
   const auto start = std::chrono::steady_clock::now();
-  if (contacts.ground.enabled) projectGround(particles, contacts.ground);
-  projectSpheres(particles, contacts.spheres);
+  projectContacts(contacts, colliders, particles, kind);
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
@@ -52,7 +51,8 @@ void forFamilyPools(ConstraintFamily family, Pools& pools, F&& f) {
 }  // namespace
 
 double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const SweepPlan& plan,
-                        const ContactSurfaces& contacts, SolverKind kind, Real h, Real relaxation) {
+                        ContactPool& contacts, const ColliderPool& colliders, SolverKind kind,
+                        Real h, Real relaxation) {
   pools.forEach([](auto& pool) { std::fill(pool.lambda.begin(), pool.lambda.end(), Real(0)); });
   SweepContext context{particles, h, relaxation, nullptr};
   double contactSeconds = 0;
@@ -62,9 +62,11 @@ double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const S
     forFamilyPools(op.family, pools, [&](auto& pool, auto kernel) {
       solveSweep<typename decltype(kernel)::type>(kind, pool, context);
     });
-    if (op.endsRound && contacts.any()) contactSeconds += projectContacts(particles, contacts);
+    if (op.endsRound && contacts.size() > 0)
+      contactSeconds += timedContacts(contacts, colliders, particles, kind);
   }
-  if (plan.ops.empty() && contacts.any()) contactSeconds += projectContacts(particles, contacts);
+  if (plan.ops.empty() && contacts.size() > 0)
+    contactSeconds += timedContacts(contacts, colliders, particles, kind);
   return contactSeconds;
 }
 

@@ -6,6 +6,7 @@
 
 #include "components/objects.h"
 #include "components/sweep_plan.h"
+#include "nucleon/solver_settings.h"
 
 namespace nucleon {
 

@@ -314,8 +314,8 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     throw SceneError(label + ": malformed JSON: " + what);
   }
   const Reader top(j, "", label);
-  top.allowOnly({"name", "description", "frames", "fps", "threads", "gravity", "ground", "spheres",
-                 "solver", "objects"});
+  top.allowOnly({"name", "description", "frames", "fps", "threads", "gravity", "ground", "planes",
+                 "spheres", "solver", "objects"});
   Scene scene;
   scene.path = label;
   scene.name = top.string("name", fs::path(label).stem().string());
@@ -348,6 +348,22 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
       sphere.staticFriction = static_cast<Real>(
           r.number("static_friction", std::max(sphere.staticFriction, sphere.friction), 0, 10));
       scene.spheres.push_back(sphere);
+    }
+  }
+  if (top.has("planes")) {
+    if (!j.at("planes").is_array()) top.fail("planes", "expected a list of planes");
+    for (std::size_t i = 0; i < j.at("planes").size(); ++i) {
+      const Reader r(j.at("planes")[i], "planes[" + std::to_string(i) + "]", label);
+      r.allowOnly({"point", "normal", "thickness", "friction", "static_friction"});
+      PlaneCollider plane;
+      plane.point = r.vec3("point", plane.point);
+      plane.normal = r.vec3("normal", plane.normal);
+      if (!(plane.normal.norm() > Real(1e-6))) r.fail(r.at("normal"), "normal must not be zero");
+      plane.thickness = static_cast<Real>(r.number("thickness", plane.thickness, 0, 10));
+      plane.friction = static_cast<Real>(r.number("friction", plane.friction, 0, 10));
+      plane.staticFriction = static_cast<Real>(
+          r.number("static_friction", std::max(plane.staticFriction, plane.friction), 0, 10));
+      scene.planes.push_back(plane);
     }
   }
   if (top.has("solver")) {
@@ -392,6 +408,7 @@ World buildWorld(const Scene& scene) {
   try {
     world.setGravity(scene.gravity);
     world.setGround(scene.ground);
+    for (const PlaneCollider& plane : scene.planes) world.addPlaneCollider(plane);
     for (const SphereCollider& sphere : scene.spheres) world.addSphereCollider(sphere);
     world.setSolver(scene.solver);
     world.setThreads(scene.threads);

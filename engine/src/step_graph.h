@@ -1,12 +1,22 @@
-// The substep as a oneTBB flow graph of systems.
+// The substep as a oneTBB flow graph of systems, built from what each system reads and writes.
 //
-//   forces ──► predict ──► constraint sweeps ──► update
-//   (v += h g)  (p = x+hv)  (move p; GS / parallel)  (v += Δp/h, x = p)
+//   forces ──┬──► predict ─────────┬──► solve ──► update
+//            │   (p = x + h v)     │   (sweeps of the plan; contact pool projected after each
+//            └──► detect contacts ─┘    round; missed contacts repaired)
+//                (contact pool from x, v)
 //
-// Each node runs one system over the pools in World::Impl; loops inside a node are parallel_for.
-// The graph is built once per world and reused for every substep, so a step allocates nothing.
-// Broad phase and collision nodes attach between "constraint sweeps" and "update".
+// Every stage declares the pools it reads and writes (kStages in step_graph.cpp); the
+// constructor adds an edge from an earlier stage to a later one wherever the two conflict (one
+// writes what the other reads or writes), so stages that touch disjoint pools, such as predict
+// and contact detection, run side by side. A stage's loops are parallel_for inside it. The
+// graph is built once per world and reused for every substep, so a step allocates nothing.
 #pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
 
 #include <tbb/flow_graph.h>
 
@@ -16,20 +26,55 @@ namespace nucleon {
 
 struct WorldState;
 
+// The pools and tables a stage may touch, as bits.
+enum PoolAccess : std::uint32_t {
+  kPositions = 1u << 0,     // particles.x
+  kVelocities = 1u << 1,    // particles.v
+  kPredicted = 1u << 2,     // particles.p
+  kInverseMass = 1u << 3,   // particles.w
+  kConstraints = 1u << 4,   // the static constraint pools (their λ and scratch)
+  kContacts = 1u << 5,      // the per-substep contact pool
+  kColliders = 1u << 6,     // the collider list
+  kRecoveries = 1u << 7,    // the repair counters
+  kSweepPlan = 1u << 8,     // the sweep plan
+  kStageProfile = 1u << 9,  // a stage's own profile entry (each stage has its own, no conflict)
+};
+
+struct StageDeclaration {
+  const char* name;
+  std::uint32_t reads;
+  std::uint32_t writes;
+};
+
+// True if stage `later` must wait for stage `earlier`.
+constexpr bool conflicts(const StageDeclaration& earlier, const StageDeclaration& later) {
+  return (earlier.writes & (later.reads | later.writes)) != 0 ||
+         (earlier.reads & later.writes) != 0;
+}
+
 class StepGraph {
  public:
   explicit StepGraph(WorldState& state);
   StepGraph(const StepGraph&) = delete;
   StepGraph& operator=(const StepGraph&) = delete;
-  // Runs one substep of length h; call inside the world's task arena.
-  void runSubstep(Real h);
+  // Runs one substep of length h; call inside the world's task arena. `step` is the 1-based
+  // number of the step the substep belongs to (for the repair log).
+  void runSubstep(Real h, std::uint64_t step);
+
+  // The stages in declaration order and the edges the constructor derived, for tests and docs.
+  static std::span<const StageDeclaration> stages();
+  const std::vector<std::array<int, 2>>& edges() const { return edges_; }
 
  private:
   using Node = tbb::flow::continue_node<tbb::flow::continue_msg>;
+  void runStage(int stage);
   WorldState& state_;
   Real h_ = 0;
+  std::uint64_t step_ = 0;
   tbb::flow::graph graph_;
-  Node forces_, predict_, solve_, update_;
+  tbb::flow::broadcast_node<tbb::flow::continue_msg> start_;
+  std::vector<std::unique_ptr<Node>> nodes_;
+  std::vector<std::array<int, 2>> edges_;
 };
 
 }  // namespace nucleon

@@ -11,81 +11,12 @@
 #include "engine/src/step_graph.h"
 #include "engine/src/world_state.h"
 #include "systems/build_constraints.h"
-#include "systems/constraint_graph_build.h"
-#include "systems/ground_contact.h"
+#include "systems/derived_tables.h"
 #include "systems/measures.h"
-#include "systems/solve_constraints.h"
-#include "systems/sphere_contact.h"
+#include "systems/particle_contacts.h"
 #include "systems/sweep_schedule.h"
 
 namespace nucleon {
-
-const char* toString(ObjectKind kind) {
-  switch (kind) {
-    case ObjectKind::Cloth:
-      return "cloth";
-    case ObjectKind::Rope:
-      return "rope";
-    case ObjectKind::Solid:
-      return "solid";
-    case ObjectKind::Particles:
-      return "particles";
-    case ObjectKind::Collider:
-      return "collider";
-  }
-  return "?";
-}
-
-const char* toString(SolverKind kind) {
-  switch (kind) {
-    case SolverKind::GaussSeidel:
-      return "gauss-seidel";
-    case SolverKind::Jacobi:
-      return "jacobi";
-    case SolverKind::ColoredGaussSeidel:
-      return "colored-gs";
-    case SolverKind::Multigrid:
-      return "multigrid";
-  }
-  return "?";
-}
-
-bool parseSolverKind(const std::string& name, SolverKind& out) {
-  for (SolverKind k : {SolverKind::GaussSeidel, SolverKind::Jacobi, SolverKind::ColoredGaussSeidel,
-                       SolverKind::Multigrid})
-    if (name == toString(k)) {
-      out = k;
-      return true;
-    }
-  return false;
-}
-
-const char* toString(ConstraintFamily family) {
-  switch (family) {
-    case ConstraintFamily::Stretch:
-      return "stretch";
-    case ConstraintFamily::Shear:
-      return "shear";
-    case ConstraintFamily::Bend:
-      return "bend";
-    case ConstraintFamily::Twist:
-      return "twist";
-    case ConstraintFamily::Volume:
-      return "volume";
-    case ConstraintFamily::Tether:
-      return "tether";
-  }
-  return "?";
-}
-
-bool parseConstraintFamily(const std::string& name, ConstraintFamily& out) {
-  for (std::size_t f = 0; f < kConstraintFamilyCount; ++f)
-    if (name == toString(static_cast<ConstraintFamily>(f))) {
-      out = static_cast<ConstraintFamily>(f);
-      return true;
-    }
-  return false;
-}
 
 World::Impl::~Impl() = default;
 
@@ -173,6 +104,23 @@ std::vector<double> lumpedMeasure(const SimplicialComplex& c, std::span<const Ve
 }
 
 }  // namespace
+
+// The solver's collider list from the API's colliders, in a fixed order (ground, planes, spheres)
+// so that contacts come out in the same order on every run.
+static void rebuildColliders(WorldState& s) {
+  ColliderPool& pool = s.colliders;
+  pool.clear();
+  const GroundPlane& g = s.ground;
+  if (g.enabled)
+    pool.append(ColliderShape::Plane, Vec3(0, g.height, 0), Vec3(0, 1, 0), 0, g.thickness,
+                g.friction, g.staticFriction);
+  for (const PlaneCollider& plane : s.planes)
+    pool.append(ColliderShape::Plane, plane.point, plane.normal.normalized(), 0, plane.thickness,
+                plane.friction, plane.staticFriction);
+  for (const SphereCollider& sphere : s.spheres)
+    pool.append(ColliderShape::Sphere, sphere.center, Vec3::Zero(), sphere.radius, sphere.thickness,
+                sphere.friction, sphere.staticFriction);
+}
 
 World::World() : impl_(std::make_unique<Impl>()) {}
 World::~World() = default;
@@ -297,6 +245,7 @@ void World::setGround(const GroundPlane& ground) {
               std::isfinite(ground.staticFriction) && ground.staticFriction >= 0,
           "ground friction must be finite and non-negative");
   impl_->state.ground = ground;
+  rebuildColliders(impl_->state);
 }
 const GroundPlane& World::ground() const {
   return impl_->state.ground;
@@ -314,6 +263,24 @@ void World::addSphereCollider(const SphereCollider& sphere) {
               std::isfinite(sphere.staticFriction) && sphere.staticFriction >= 0,
           "sphere friction must be finite and non-negative");
   impl_->state.spheres.push_back(sphere);
+  rebuildColliders(impl_->state);
+}
+void World::addPlaneCollider(const PlaneCollider& plane) {
+  require(finite(plane.point) && plane.point.cwiseAbs().maxCoeff() < 1e9,
+          "plane point must be finite");
+  require(finite(plane.normal) && plane.normal.norm() > Real(1e-6) &&
+              plane.normal.cwiseAbs().maxCoeff() < 1e9,
+          "plane normal must be finite and not zero");
+  require(std::isfinite(plane.thickness) && plane.thickness >= 0,
+          "plane thickness must be finite and non-negative");
+  require(std::isfinite(plane.friction) && plane.friction >= 0 &&
+              std::isfinite(plane.staticFriction) && plane.staticFriction >= 0,
+          "plane friction must be finite and non-negative");
+  impl_->state.planes.push_back(plane);
+  rebuildColliders(impl_->state);
+}
+std::span<const PlaneCollider> World::planeColliders() const {
+  return impl_->state.planes;
 }
 std::span<const SphereCollider> World::sphereColliders() const {
   return impl_->state.spheres;
@@ -352,29 +319,8 @@ void World::step(double dt) {
   Impl& impl = *impl_;
   WorldState& s = impl.state;
   if (s.topologyDirty) {  // derived tables, rebuilt outside the step so a step never allocates
-    s.constraints.forEach([&](auto& pool) {
-      constexpr std::size_t n = std::remove_reference_t<decltype(pool)>::kArity;
-      const std::span<const std::array<Index, n>> tuples = pool.particles;
-      pool.coloring = colorConstraints(tuples, s.particles.size(), s.particles.w);
-      // Colored Gauss–Seidel stores the pool in color order, so that a color is contiguous in
-      // memory and its sweep streams through the constraint columns. The other backends keep
-      // the mesh order, whose neighbouring constraints share particles (better particle reuse).
-      if (s.solver.kind == SolverKind::ColoredGaussSeidel) {
-        pool.permute(pool.coloring.order);
-        std::iota(pool.coloring.order.begin(), pool.coloring.order.end(), Index(0));
-        pool.coloring.inPlace = true;
-      }
-      pool.undamped =
-          std::all_of(pool.damping.begin(), pool.damping.end(), [](Real tau) { return tau == 0; });
-      pool.incidence = buildIncidence(tuples, s.particles.size());
-      pool.splitInverseMass.resize(s.particles.size());
-      for (std::size_t i = 0; i < s.particles.size(); ++i)
-        pool.splitInverseMass[i] =
-            s.particles.w[i] * Real(pool.incidence.offset[i + 1] - pool.incidence.offset[i]);
-      pool.correction.assign(n * pool.size(), Vec3::Zero());
-    });
-    s.plan = planSweeps(s.solver, s.objects);
-    s.plan.projectionsPerSubstep = countProjections(s.constraints, s.particles, s.plan);
+    buildDerivedTables(s.constraints, s.particles, s.solver.kind);
+    s.plan = buildSweepPlan(s.solver, s.objects, s.constraints, s.particles);
     s.topologyDirty = false;
   }
   if (!impl.arena) {
@@ -386,7 +332,9 @@ void World::step(double dt) {
     // The graph is made inside the arena so that its tasks run on the arena's threads.
     if (!impl.graph) impl.graph = std::make_unique<StepGraph>(impl.state);
     const Real h = static_cast<Real>(dt / impl.state.solver.substeps);
-    for (int i = 0; i < impl.state.solver.substeps; ++i) impl.graph->runSubstep(h);
+    ++impl.state.stepCount;
+    for (int i = 0; i < impl.state.solver.substeps; ++i)
+      impl.graph->runSubstep(h, impl.state.stepCount);
   });
   ++impl.state.profile.steps;
 }
@@ -470,10 +418,13 @@ Measures World::measure() const {
       now += enclosedVolume(o.surface, s.particles.x, o.firstParticle);
     }
   m.volumeRatio = rest != 0 ? now / rest : -1.0;
-  if (s.ground.enabled)  // touching: within 1 mm of the contact surface
-    m.contacts = countGroundContacts(s.particles, s.ground, Real(1e-3));
-  m.contacts += countSphereContacts(s.particles, s.spheres, Real(1e-3));
+  // Touching: within 1 mm of a contact surface.
+  m.contacts = countTouchingParticles(s.colliders, s.particles, Real(1e-3));
   return m;
+}
+
+const Recoveries& World::recoveries() const {
+  return impl_->state.recoveries;
 }
 
 const StepProfile& World::profile() const {

@@ -8,7 +8,9 @@
 
 #include <tbb/task_arena.h>
 
+#include "components/collider_pool.h"
 #include "components/constraint_pools.h"
+#include "components/contact_pool.h"
 #include "components/objects.h"
 #include "components/particles.h"
 #include "components/sweep_plan.h"
@@ -24,12 +26,17 @@ struct WorldState {
   std::vector<ObjectRecord> objects;
   Vec3 gravity = Vec3(0, Real(-9.81), 0);
   SolverSettings solver;
+  // The colliders as the API defined them; `colliders` is the solver's list built from them.
   GroundPlane ground;
+  std::vector<PlaneCollider> planes;
   std::vector<SphereCollider> spheres;
-  SweepPlan plan;                       // from solver.schedule and the objects' schedules
-  bool topologyDirty = true;            // incidence, coloring and plan need rebuilding
-  std::size_t nonFiniteRecoveries = 0;  // particles reset by updateState since creation
-  StepProfile profile;                  // the engine's own per-stage timing
+  ColliderPool colliders;       // static lifetime: rebuilt when a collider is added or changed
+  ContactPool contacts;         // per-substep lifetime: refilled by contact detection every substep
+  SweepPlan plan;               // from solver.schedule and the objects' schedules
+  bool topologyDirty = true;    // incidence, coloring and plan need rebuilding
+  Recoveries recoveries;        // repairs since creation
+  std::uint64_t stepCount = 0;  // steps taken since creation
+  StepProfile profile;          // the engine's own per-stage timing
 };
 
 struct World::Impl {

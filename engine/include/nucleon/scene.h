@@ -30,6 +30,7 @@ struct Scene {
   int threads = 0;  // 0 = all cores
   Vec3 gravity = Vec3(0, Real(-9.81), 0);
   GroundPlane ground;  // enabled when the scene has a "ground" entry
+  std::vector<PlaneCollider> planes;
   std::vector<SphereCollider> spheres;
   SolverSettings solver;
   std::vector<SceneObject> objects;

@@ -1,0 +1,43 @@
+// What an object is made of: mass, compliances, the families it has, collision thickness.
+#pragma once
+
+#include "nucleon/types.h"
+
+namespace nucleon {
+
+struct Material {
+  // Mass of the whole object in kg, spread over its particles in proportion to the length, area
+  // or volume around each (lumped mass). Must be positive and finite.
+  Real mass = 1;
+  // XPBD compliance (inverse stiffness, m/N) of the stretch constraints; 0 is inextensible.
+  Real stretchCompliance = 0;
+  Real compressionCompliance = 0;
+  // Bending, off by default: for cloth, type 3 (dihedral) across every interior edge; for ropes,
+  // type 2 (angle) at every vertex where two segments meet. Compliance in rad/(N·m).
+  bool bending = false;
+  Real bendCompliance = 0;
+  // Shear of cloth, off by default: type 2 (angle) at each corner of each triangle, in rad/(N·m).
+  // Stretch on all three edges already holds a triangle's shape; shear matters when the
+  // stretch is soft.
+  bool shear = false;
+  Real shearCompliance = 0;
+  // Twist of ropes, off by default: type 3 (dihedral) of each four consecutive points whose rest
+  // shape is not straight (a straight run has no defined dihedral), in rad/(N·m).
+  bool twist = false;
+  Real twistCompliance = 0;
+  // Long-range attachments (Kim, Chentanez and Müller 2012) of inextensible (stretch compliance
+  // 0) cloth and ropes that have pins: each free vertex may not move farther from its nearest pin
+  // (along the mesh's edges) than in the rest shape. A unilateral, hard limit: it stops a pinned
+  // cloth from stretching away from its pins when the sweeps are too few to carry its weight, and
+  // costs one projection per vertex.
+  bool tethers = true;
+  // Stiffness-proportional damping time τ (s) of every constraint of the object: the constraint
+  // force is −(C + τ dC/dt)/α. 0 = undamped. With α = 0 it makes C relax as e^(−t/τ).
+  Real damping = 0;
+  // Volume constraints of a solid's tetrahedra (m³/N); 0 keeps every tet's volume.
+  Real volumeCompliance = 0;
+  // Collision thickness in m: radius of points and edges, half-width of triangle slabs.
+  Real thickness = Real(0.01);
+};
+
+}  // namespace nucleon

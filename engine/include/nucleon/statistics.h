@@ -1,0 +1,50 @@
+// What a world reports about itself: the per-stage profile and the quality measures.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace nucleon {
+
+// Wall-clock seconds each stage of step() has taken since the world was created or the profile
+// was last reset (the engine's own profile). `solve` excludes the contact projections, which are
+// `collisions` (with contact detection); `projections` counts constraint projections in the solve
+// stage.
+struct StepProfile {
+  double forces = 0;
+  double predict = 0;
+  double solve = 0;
+  double collisions = 0;
+  double update = 0;
+  std::uint64_t steps = 0;
+  std::uint64_t substeps = 0;
+  std::uint64_t projections = 0;
+};
+
+// Repairs the step made to keep the state usable, counted since the world was created. Each one
+// means that the solver did not resolve something it should have (or that the input was bad); a
+// healthy run has none.
+struct Recoveries {
+  // Particles whose new position or velocity was not finite: they kept their position at the
+  // start of the substep and lost their velocity.
+  std::uint64_t nonFinite = 0;
+  // Free particles that ended a solve inside a collider without a contact (they moved farther
+  // than the contact pool's reach): pushed out to the surface.
+  std::uint64_t missedContacts = 0;
+  std::uint64_t firstStep = 0;  // 1-based step of the first repair; 0 if there was none
+  std::uint64_t total() const { return nonFinite + missedContacts; }
+};
+
+// Quality measures of the current state (DESIGN.md §7).
+struct Measures {
+  double maxStrain = 0;   // max |L/L0 − 1| over stretch constraints
+  double meanStrain = 0;  // mean of the same
+  double kineticEnergy = 0;
+  double potentialEnergy = 0;  // −m g·x summed over free particles
+  std::size_t nanCount = 0;    // non-finite position or velocity components
+  double minHeight = 0;        // lowest particle coordinate along −gravity (y if gravity is 0)
+  double volumeRatio = -1;     // current / rest volume of closed objects; −1 if there are none
+  std::size_t contacts = 0;    // particles touching the ground plane or a sphere collider
+};
+
+}  // namespace nucleon

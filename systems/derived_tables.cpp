@@ -1,0 +1,43 @@
+#include "systems/derived_tables.h"
+
+#include <algorithm>
+#include <numeric>
+
+#include "systems/constraint_graph_build.h"
+#include "systems/solve_constraints.h"
+#include "systems/sweep_schedule.h"
+
+namespace nucleon {
+
+void buildDerivedTables(ConstraintPools& pools, const ParticlePool& particles, SolverKind kind) {
+  pools.forEach([&](auto& pool) {
+    constexpr std::size_t n = std::remove_reference_t<decltype(pool)>::kArity;
+    const std::span<const std::array<Index, n>> tuples = pool.particles;
+    pool.coloring = colorConstraints(tuples, particles.size(), particles.w);
+    // Colored Gauss–Seidel stores the pool in color order, so that a color is contiguous in
+    // memory and its sweep streams through the constraint columns. The other backends keep the
+    // mesh order, whose neighbouring constraints share particles (better particle reuse).
+    if (kind == SolverKind::ColoredGaussSeidel) {
+      pool.permute(pool.coloring.order);
+      std::iota(pool.coloring.order.begin(), pool.coloring.order.end(), Index(0));
+      pool.coloring.inPlace = true;
+    }
+    pool.undamped =
+        std::all_of(pool.damping.begin(), pool.damping.end(), [](Real tau) { return tau == 0; });
+    pool.incidence = buildIncidence(tuples, particles.size());
+    pool.splitInverseMass.resize(particles.size());
+    for (std::size_t i = 0; i < particles.size(); ++i)
+      pool.splitInverseMass[i] =
+          particles.w[i] * Real(pool.incidence.offset[i + 1] - pool.incidence.offset[i]);
+    pool.correction.assign(n * pool.size(), Vec3::Zero());
+  });
+}
+
+SweepPlan buildSweepPlan(const SolverSettings& solver, std::span<const ObjectRecord> objects,
+                         const ConstraintPools& pools, const ParticlePool& particles) {
+  SweepPlan plan = planSweeps(solver, objects);
+  plan.projectionsPerSubstep = countProjections(pools, particles, plan);
+  return plan;
+}
+
+}  // namespace nucleon

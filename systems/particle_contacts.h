@@ -1,0 +1,56 @@
+// Contacts of particles with the collider list (ground, spheres): the per-substep contact pool.
+//
+//   detectContacts         start of the substep: every free particle whose motion x → x + h v
+//                          comes within reach of a collider gets a contact (reads x, v, w,
+//                          colliders; writes the contact pool)
+//   projectContacts        after each sweep round: C = gap(p) ≥ 0 with gap = distance to the
+//                          surface − thickness, pushed out along the normal, then Coulomb friction
+//   resolveMissedContacts  end of the solve: a particle the sweeps moved into a collider although
+//                          it had no contact is pushed out and counted as a repair
+//
+// Friction (position-based, Macklin et al. 2014 §6, taken over the whole substep): with λ_n the
+// normal correction accumulated over the substep and d the particle's tangential motion over the
+// substep had friction not acted, friction removes all of d if |d| ≤ μ_s λ_n (sticking) and
+// μ_k λ_n of it otherwise (sliding). The displacement already removed is kept per contact, so
+// projecting again after more sweeps re-evaluates the same law instead of adding to it: the
+// result does not depend on the sweep count, and friction holds against sliding that the
+// constraints drive, not only against the motion of a re-penetration.
+#pragma once
+
+#include <cstddef>
+
+#include "components/collider_pool.h"
+#include "components/contact_pool.h"
+#include "components/particles.h"
+#include "nucleon/solver_settings.h"
+
+namespace nucleon {
+
+// Beyond its own motion over the substep, how close (m) to a collider's contact surface a
+// particle must start or be predicted to end for a contact to be made: the room the sweeps have to
+// move it towards the collider before the pool would miss it (resolveMissedContacts catches and
+// counts what it misses).
+constexpr Real kContactReach = Real(0.01);
+
+// Refills `contacts` for the substep of length h (particles' predicted position x + h v).
+// Deterministic: contacts come out in particle order whatever the thread count.
+void detectContacts(ContactPool& contacts, const ColliderPool& colliders,
+                    const ParticlePool& particles, Real h);
+
+// Projects every contact of the pool onto particles.p. Gauss–Seidel goes through the pool in
+// order; the parallel backends project the runs of different particles in parallel (they share
+// nothing) and each run in order, which gives the same result for any thread count.
+void projectContacts(ContactPool& contacts, const ColliderPool& colliders, ParticlePool& particles,
+                     SolverKind kind);
+
+// Pushes out of the colliders every free particle that ended a solve inside one without having a
+// contact in the pool; returns how many were repaired.
+std::size_t resolveMissedContacts(const ContactPool& contacts, const ColliderPool& colliders,
+                                  ParticlePool& particles);
+
+// Free particles within `tolerance` of some collider's contact surface at x: the contacts the
+// stats report.
+std::size_t countTouchingParticles(const ColliderPool& colliders, const ParticlePool& particles,
+                                   Real tolerance);
+
+}  // namespace nucleon

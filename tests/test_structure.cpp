@@ -1,0 +1,129 @@
+// The engine's structure as a newcomer relies on it: the step graph follows from what each stage
+// declares it reads and writes; the per-substep contact pool reuses its storage; every bundled
+// scene gives the same state for one and two threads under every backend.
+#include <algorithm>
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "engine/src/step_graph.h"
+#include "engine/src/world_state.h"
+#include "nucleon/scene.h"
+#include "nucleon/shapes.h"
+#include "sim_test_context.h"
+
+namespace nucleon {
+namespace {
+
+int stageIndex(const char* name) {
+  const auto stages = StepGraph::stages();
+  for (std::size_t s = 0; s < stages.size(); ++s)
+    if (std::string(stages[s].name) == name) return static_cast<int>(s);
+  ADD_FAILURE() << "no stage " << name;
+  return -1;
+}
+
+bool hasEdge(const StepGraph& graph, const char* from, const char* to) {
+  const std::array<int, 2> edge = {stageIndex(from), stageIndex(to)};
+  return std::find(graph.edges().begin(), graph.edges().end(), edge) != graph.edges().end();
+}
+
+TEST(StepGraph, OrdersConflictingStagesAndRunsIndependentOnesSideBySide) {
+  World world = test::hangingCloth(8, 2);
+  world.step(1.0 / 60);  // builds the graph
+  const StepGraph& graph = *world.impl().graph;
+  // Contact detection reads x and v only, so it waits for the forces but not for predict.
+  EXPECT_TRUE(hasEdge(graph, "forces", "predict"));
+  EXPECT_TRUE(hasEdge(graph, "forces", "detect contacts"));
+  EXPECT_FALSE(hasEdge(graph, "predict", "detect contacts"));
+  EXPECT_TRUE(hasEdge(graph, "predict", "solve"));
+  EXPECT_TRUE(hasEdge(graph, "detect contacts", "solve"));
+  EXPECT_TRUE(hasEdge(graph, "solve", "update"));
+  // Every edge goes forwards (declaration order is a topological order: no cycles).
+  for (const auto& [from, to] : graph.edges()) EXPECT_LT(from, to);
+}
+
+// A cloth resting flat on the ground has the same contacts every substep: once warm, the pool is
+// refilled into the same storage (no allocation in the step).
+TEST(ContactPool, IsRefilledEverySubstepIntoTheSameStorage) {
+  GridSpec spec;
+  spec.resolution = {16, 16};
+  spec.center = Vec3(0, Real(0.0051), 0);
+  GroundPlane ground;
+  ground.enabled = true;
+  World world;
+  world.setGround(ground);
+  world.addCloth(gridCloth(spec));
+  test::simulate(world, 10);
+  const ContactPool& pool = world.impl().state.contacts;
+  ASSERT_EQ(pool.size(), 256u);  // every particle touches the ground
+  const Index* particles = pool.particle.data();
+  const Vec3* friction = pool.friction.data();
+  test::simulate(world, 30);
+  EXPECT_EQ(pool.size(), 256u);
+  EXPECT_EQ(pool.particle.data(), particles);
+  EXPECT_EQ(pool.friction.data(), friction);
+  // In particle order, one contact each.
+  for (std::size_t c = 0; c < pool.size(); ++c) EXPECT_EQ(pool.particle[c], Index(c));
+  EXPECT_EQ(world.recoveries().total(), 0u);
+}
+
+// Removing the ground leaves no contact behind (a stale contact would name a collider that no
+// longer exists).
+TEST(ContactPool, IsEmptiedWhenTheCollidersGo) {
+  GroundPlane ground;
+  ground.enabled = true;
+  World world = test::hangingCloth(8, 2);
+  world.setGround(ground);
+  GridSpec spec;
+  spec.resolution = {4, 4};
+  spec.center = Vec3(3, Real(0.0051), 0);
+  world.addCloth(gridCloth(spec));
+  test::simulate(world, 3);
+  EXPECT_GT(world.impl().state.contacts.size(), 0u);
+  ground.enabled = false;
+  world.setGround(ground);
+  test::simulate(world, 1);
+  EXPECT_EQ(world.impl().state.contacts.size(), 0u);
+}
+
+class SceneDeterminism : public testing::TestWithParam<std::string> {};
+
+TEST_P(SceneDeterminism, SameStateForOneAndTwoThreads) {
+  Scene scene = loadScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/" + GetParam());
+  // Enough steps for every scene to reach its contacts or its pins' pull; few enough for the
+  // sanitizer build.
+  const int steps = scene.objects.front().def.vertices.size() > 5000 ? 4 : 30;
+  for (SolverKind kind :
+       {SolverKind::GaussSeidel, SolverKind::Jacobi, SolverKind::ColoredGaussSeidel}) {
+    scene.solver.kind = kind;
+    std::uint64_t hashes[2];
+    for (int threads : {1, 2}) {
+      scene.threads = threads;
+      World world = buildWorld(scene);
+      test::simulate(world, steps, 1.0 / scene.fps);
+      hashes[threads - 1] = world.stateHash();
+      EXPECT_EQ(world.recoveries().total(), 0u) << toString(kind);
+    }
+    EXPECT_EQ(hashes[0], hashes[1]) << toString(kind);
+  }
+}
+
+std::vector<std::string> bundledScenes() {
+  std::vector<std::string> names;
+  for (const auto& entry :
+       std::filesystem::directory_iterator(std::string(NUCLEON_ASSETS_DIR) + "/scenes"))
+    if (entry.path().extension() == ".json") names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+INSTANTIATE_TEST_SUITE_P(Bundled, SceneDeterminism, testing::ValuesIn(bundledScenes()),
+                         [](const testing::TestParamInfo<std::string>& info) {
+                           std::string name = info.param.substr(0, info.param.size() - 5);
+                           return name;
+                         });
+
+}  // namespace
+}  // namespace nucleon
