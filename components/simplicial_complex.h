@@ -1,4 +1,4 @@
-// The simplicial complex: one representation for every kind of matter (DESIGN.md §1).
+// The simplicial complex: one representation for every kind of matter (ARCHITECTURE.md §1).
 //
 // A k-simplex is an oriented list of k+1 vertex indices, local to its object (the object's first
 // particle is added to make a particle index). The top simplices keep the orientation they were

@@ -1,4 +1,4 @@
-// Sweeps over a ConstraintPool for any kernel, one per backend (DESIGN.md §3): Gauss–Seidel in
+// Sweeps over a ConstraintPool for any kernel, one per backend (ARCHITECTURE.md §3): Gauss–Seidel in
 // pool order, Jacobi (corrections from the same state, averaged fixed-order gather) and colored
 // Gauss–Seidel (colors in sequence, each in parallel). Dispatch is per family, never per
 // constraint: the kernel is a template parameter.

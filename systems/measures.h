@@ -1,4 +1,4 @@
-// Quality measures of a state (DESIGN.md §7): strain, energy, finiteness, volume, a state hash.
+// Quality measures of a state (ARCHITECTURE.md §6): strain, energy, finiteness, volume, a state hash.
 // Pure functions of the pools, used by the stats output, tests and benchmarks.
 #pragma once
 

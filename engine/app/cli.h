@@ -1,5 +1,5 @@
-// The `nucleon` command line (CONTRACT.md): run, scenes, help. Kept in a library so tests can
-// drive it without starting a process.
+// The `nucleon` command line (documented in README.md): run, scenes, help. Kept in a library so
+// tests can drive it without starting a process.
 #pragma once
 
 #include <iosfwd>

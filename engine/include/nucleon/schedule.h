@@ -7,7 +7,7 @@
 
 namespace nucleon {
 
-// The constraint families a schedule names (DESIGN.md §2): stretch (type 1, edges), shear
+// The constraint families a schedule names (ARCHITECTURE.md §2): stretch (type 1, edges), shear
 // (type 2 at triangle corners), bend (type 3 hinges of cloth and type 2 angles of curves), twist
 // (type 3 on four consecutive curve points), volume (tetrahedra), tether (long-range
 // attachments of free particles to the nearest pin).

@@ -35,7 +35,7 @@ struct Recoveries {
   std::uint64_t total() const { return nonFinite + missedContacts; }
 };
 
-// Quality measures of the current state (DESIGN.md §7).
+// Quality measures of the current state (ARCHITECTURE.md §6).
 struct Measures {
   double maxStrain = 0;   // max |L/L0 − 1| over stretch constraints
   double meanStrain = 0;  // mean of the same
