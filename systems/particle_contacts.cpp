@@ -11,7 +11,7 @@ namespace nucleon {
 namespace {
 
 constexpr std::size_t kParticleGrain = 4096;
-constexpr std::size_t kContactGrain = 1024;
+constexpr std::size_t kContactGrain = 512;
 
 // Signed gap C = distance to the surface − thickness (negative: inside) and the outward normal.
 struct SurfacePoint {

@@ -86,8 +86,9 @@ void StepGraph::runStage(int stage) {
       profile.solve += timed([&] {
         contactSeconds = solveConstraints(s.constraints, s.particles, s.plan, s.contacts,
                                           s.colliders, s.solver.kind, h_, s.solver.relaxation);
-        contactSeconds +=
-            timed([&] { missed = resolveMissedContacts(s.contacts, s.colliders, s.particles); });
+        if (s.colliders.size() > 0)
+          contactSeconds +=
+              timed([&] { missed = resolveMissedContacts(s.contacts, s.colliders, s.particles); });
       });
       // Contacts are projected between sweep rounds: book them as collisions.
       profile.solve -= contactSeconds;
