@@ -12,7 +12,7 @@ struct ConstraintPools {
   DihedralConstraints bend;    // type 3 on the hinges of cloth        }
   DihedralConstraints twist;   // type 3 on four consecutive rope points
   VolumeConstraints volume;    // tetrahedra of solids
-  TetherConstraints tether;    // free particle to its nearest pin, unilateral
+  TetherConstraints tether;    // free particle to pins of its nearest pin clusters, unilateral
 
   template <class F>
   void forEach(F&& f) {

@@ -26,10 +26,13 @@ struct Material {
   bool twist = false;
   Real twistCompliance = 0;
   // Long-range attachments (Kim, Chentanez and Müller 2012) of inextensible (stretch compliance
-  // 0) cloth and ropes that have pins: each free vertex may not move farther from its nearest pin
-  // (along the mesh's edges) than in the rest shape. A unilateral, hard limit: it stops a pinned
-  // cloth from stretching away from its pins when the sweeps are too few to carry its weight, and
-  // costs one projection per vertex.
+  // 0) cloth and ropes that have pins: each free vertex may not move farther from a pin than the
+  // shortest path to it along the mesh's edges in the rest shape. Pins joined by edges form a
+  // cluster, and a vertex is held by the nearest pin of each of its nearest clusters (up to
+  // four), so a cloth held at separate points does not split where the nearest pin changes.
+  // A unilateral, hard limit: it stops a pinned cloth from stretching away from its pins when
+  // the sweeps are too few to carry its weight, and costs one projection per vertex and cluster
+  // held (two for a cloth hung from two corners, one for a pinned row).
   bool tethers = true;
   // Stiffness-proportional damping time τ (s) of every constraint of the object: the constraint
   // force is −(C + τ dC/dt)/α. 0 = undamped. With α = 0 it makes C relax as e^(−t/τ).
