@@ -6,6 +6,7 @@
 #include "systems/constraint_graph_build.h"
 #include "systems/solve_constraints.h"
 #include "systems/sweep_schedule.h"
+#include "systems/tether_sweep.h"
 
 namespace nucleon {
 
@@ -13,11 +14,16 @@ void buildDerivedTables(ConstraintPools& pools, const ParticlePool& particles, S
   pools.forEach([&](auto& pool) {
     constexpr std::size_t n = std::remove_reference_t<decltype(pool)>::kArity;
     const std::span<const std::array<Index, n>> tuples = pool.particles;
-    pool.coloring = colorConstraints(tuples, particles.size(), particles.w);
+    if (static_cast<const void*>(&pool) == static_cast<const void*>(&pools.tether)) {
+      // Tethers have their own sweep over vertices, in layers (systems/tether_sweep.h).
+      layerTethers(pools.tether);
+    } else {
+      pool.coloring = colorConstraints(tuples, particles.size(), particles.w);
+    }
     // Colored Gauss–Seidel stores the pool in color order, so that a color is contiguous in
     // memory and its sweep streams through the constraint columns. The other backends keep the
     // mesh order, whose neighbouring constraints share particles (better particle reuse).
-    if (kind == SolverKind::ColoredGaussSeidel) {
+    if (kind == SolverKind::ColoredGaussSeidel && !pool.coloring.inPlace) {
       pool.permute(pool.coloring.order);
       std::iota(pool.coloring.order.begin(), pool.coloring.order.end(), Index(0));
       pool.coloring.inPlace = true;

@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <type_traits>
 
 #include "systems/constraint_sweeps.h"
 #include "systems/particle_contacts.h"
+#include "systems/tether_sweep.h"
 
 namespace nucleon {
 namespace {
@@ -60,7 +62,11 @@ double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const S
     context.objectRuns =
         op.objectRunsOffset < 0 ? nullptr : plan.objectRuns.data() + op.objectRunsOffset;
     forFamilyPools(op.family, pools, [&](auto& pool, auto kernel) {
-      solveSweep<typename decltype(kernel)::type>(kind, pool, context);
+      using Kernel = typename decltype(kernel)::type;
+      if constexpr (std::is_same_v<Kernel, TetherKernel>)
+        solveTethers(kind, pool, context);
+      else
+        solveSweep<Kernel>(kind, pool, context);
     });
     if (op.endsRound && contacts.size() > 0)
       contactSeconds += timedContacts(contacts, colliders, particles, kind);

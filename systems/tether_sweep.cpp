@@ -1,0 +1,186 @@
+#include "systems/tether_sweep.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "systems/distance_batch.h"
+
+// The batched path is written for float state on x86-64, like the distance batches.
+#if (defined(__x86_64__) || defined(__i386__)) && !defined(NUCLEON_DOUBLE)
+#include <immintrin.h>
+#define NUCLEON_TETHER_X86 1
+#endif
+
+namespace nucleon {
+namespace {
+
+constexpr Index kBatch = 8;
+constexpr std::size_t kBlocksPerTask = 64;
+constexpr Real kTiny = Real(1e-12);
+
+// Rank r's tethers, one layer after the other, applied to its vertex (scalar).
+inline void projectVertex(const TetherConstraints& pool, Index rank, Vec3* p, const Real* w) {
+  const auto& layers = pool.coloring.colorOffset;
+  const Index vertex = pool.particles[layers[0] + rank][0];
+  if (w[vertex] == 0) return;
+  Vec3 x = p[vertex];
+  for (std::size_t k = 0; k + 1 < layers.size() && layers[k] + rank < layers[k + 1]; ++k) {
+    const Index c = layers[k] + rank;
+    const Vec3 d = x - p[pool.particles[c][1]];
+    const Real length = d.norm();
+    const Real constraint = length - pool.rest[c];
+    if (constraint > 0 && length >= kTiny) x -= d * (constraint / length);
+  }
+  p[vertex] = x;
+}
+
+#if NUCLEON_TETHER_X86
+// The (free, pin) pairs of eight tethers from c on → the eight free and the eight pin indices.
+[[gnu::target("avx2,fma")]] inline void loadPairs(const TetherConstraints& pool, Index c,
+                                                  __m256i& free, __m256i& pin) {
+  const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+  const auto* pairs = reinterpret_cast<const __m256i*>(pool.particles.data() + c);
+  const __m256i low = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(pairs), split);
+  const __m256i high = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(pairs + 1), split);
+  free = _mm256_permute2x128_si256(low, high, 0x20);
+  pin = _mm256_permute2x128_si256(low, high, 0x31);
+}
+
+// Eight consecutive ranks [a, a + 8), every layer that reaches any of them reaching all eight.
+[[gnu::target("avx2,fma")]] void projectEight(const TetherConstraints& pool, Index a, Vec3* p,
+                                              std::size_t layerCount) {
+  const float* base = reinterpret_cast<const float*>(p);
+  const auto& layers = pool.coloring.colorOffset;
+  const __m256 tiny = _mm256_set1_ps(kTiny), zero = _mm256_setzero_ps();
+  __m256i vertex, pin;
+  loadPairs(pool, layers[0] + a, vertex, pin);
+  const __m256i vertex3 = _mm256_add_epi32(_mm256_slli_epi32(vertex, 1), vertex);
+  __m256 x = _mm256_i32gather_ps(base, vertex3, 4), y = _mm256_i32gather_ps(base + 1, vertex3, 4),
+         z = _mm256_i32gather_ps(base + 2, vertex3, 4);
+  for (std::size_t k = 0; k < layerCount && layers[k] + a < layers[k + 1]; ++k) {
+    const Index c = layers[k] + a;
+    if (k > 0) loadPairs(pool, c, vertex, pin);
+    const __m256i pin3 = _mm256_add_epi32(_mm256_slli_epi32(pin, 1), pin);
+    const __m256 dx = _mm256_sub_ps(x, _mm256_i32gather_ps(base, pin3, 4));
+    const __m256 dy = _mm256_sub_ps(y, _mm256_i32gather_ps(base + 1, pin3, 4));
+    const __m256 dz = _mm256_sub_ps(z, _mm256_i32gather_ps(base + 2, pin3, 4));
+    const __m256 length =
+        _mm256_sqrt_ps(_mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz))));
+    const __m256 constraint = _mm256_sub_ps(length, _mm256_loadu_ps(pool.rest.data() + c));
+    const __m256 active = _mm256_and_ps(_mm256_cmp_ps(constraint, zero, _CMP_GT_OQ),
+                                        _mm256_cmp_ps(length, tiny, _CMP_GE_OQ));
+    // x −= d C/|d| where the tether is stretched.
+    const __m256 scale =
+        _mm256_and_ps(_mm256_div_ps(constraint, _mm256_max_ps(length, tiny)), active);
+    x = _mm256_fnmadd_ps(scale, dx, x);
+    y = _mm256_fnmadd_ps(scale, dy, y);
+    z = _mm256_fnmadd_ps(scale, dz, z);
+  }
+  alignas(32) float xs[8], ys[8], zs[8];
+  alignas(32) int index[8];
+  _mm256_store_ps(xs, x);
+  _mm256_store_ps(ys, y);
+  _mm256_store_ps(zs, z);
+  loadPairs(pool, layers[0] + a, vertex, pin);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(index), vertex);
+  for (int j = 0; j < 8; ++j) p[index[j]] = Vec3(xs[j], ys[j], zs[j]);
+}
+#endif
+
+// Whether ranks [a, a + 8) can go eight at a time: every layer reaching rank a reaches a + 7, and
+// every vertex is free (a pinned vertex has no tethers, but a kinematic change of mass could).
+bool fullBatch(const TetherConstraints& pool, Index a, const Real* w) {
+  const auto& layers = pool.coloring.colorOffset;
+  for (std::size_t k = 0; k + 1 < layers.size(); ++k) {
+    const Index size = layers[k + 1] - layers[k];
+    if (size > a && size < a + kBatch) return false;
+  }
+  for (Index r = a; r < a + kBatch; ++r)
+    if (w[pool.particles[layers[0] + r][0]] == 0) return false;
+  return true;
+}
+
+}  // namespace
+
+void layerTethers(TetherConstraints& pool) {
+  const std::size_t n = pool.size();
+  pool.coloring = ConstraintColoring{};
+  if (n == 0) return;
+  // Tethers of each vertex in pool order (the builder appends a vertex's nearest pin first).
+  std::vector<Index> byVertex(n);
+  std::iota(byVertex.begin(), byVertex.end(), Index(0));
+  std::stable_sort(byVertex.begin(), byVertex.end(),
+                   [&](Index a, Index b) { return pool.particles[a][0] < pool.particles[b][0]; });
+  struct Run {
+    Index start, count;
+  };
+  std::vector<Run> runs;
+  for (Index i = 0; i < n;) {
+    Index j = i;
+    while (j < n && pool.particles[byVertex[j]][0] == pool.particles[byVertex[i]][0]) ++j;
+    runs.push_back({i, j - i});
+    i = j;
+  }
+  // Rank vertices by decreasing tether count (stable: then by vertex index).
+  std::stable_sort(runs.begin(), runs.end(),
+                   [](const Run& a, const Run& b) { return a.count > b.count; });
+  std::vector<Index> order;
+  order.reserve(n);
+  pool.coloring.colorOffset.push_back(0);
+  for (Index k = 0; k < runs.front().count; ++k) {
+    for (const Run& run : runs) {
+      if (run.count <= k) break;
+      order.push_back(byVertex[run.start + k]);
+    }
+    pool.coloring.colorOffset.push_back(static_cast<Index>(order.size()));
+  }
+  pool.permute(order);
+  pool.coloring.order.resize(n);
+  std::iota(pool.coloring.order.begin(), pool.coloring.order.end(), Index(0));
+  pool.coloring.inPlace = true;
+}
+
+void solveTethers(SolverKind kind, TetherConstraints& pool, const SweepContext& context) {
+  if (pool.size() == 0) return;
+  if (context.objectRuns || pool.coloring.colorCount() == 0) {
+    solveSweep<TetherKernel>(kind, pool, context);
+    return;
+  }
+  Vec3* p = context.particles.p.data();
+  const Real* w = context.particles.w.data();
+  const Index ranks = pool.coloring.colorOffset[1];
+  if (kind == SolverKind::GaussSeidel) {  // the sequential reference: one vertex at a time
+    for (Index r = 0; r < ranks; ++r) projectVertex(pool, r, p, w);
+    return;
+  }
+  bool batched = false;
+#if NUCLEON_TETHER_X86
+  batched = distanceBatchesAvailable();
+#endif
+  const std::size_t layerCount = pool.coloring.colorCount();
+  // Blocks of eight ranks from rank 0, whatever the thread count: which vertices go eight at a
+  // time, and hence the rounding, never depends on the partitioning.
+  const Index blocks = (ranks + kBatch - 1) / kBatch;
+  tbb::parallel_for(tbb::blocked_range<Index>(0, blocks, kBlocksPerTask),
+                    [&](const tbb::blocked_range<Index>& range) {
+                      for (Index b = range.begin(); b != range.end(); ++b) {
+                        const Index a = b * kBatch;
+#if NUCLEON_TETHER_X86
+                        if (batched && a + kBatch <= ranks && fullBatch(pool, a, w)) {
+                          projectEight(pool, a, p, layerCount);
+                          continue;
+                        }
+#endif
+                        for (Index r = a; r < std::min(ranks, a + kBatch); ++r)
+                          projectVertex(pool, r, p, w);
+                      }
+                    });
+  (void)batched;
+  (void)layerCount;
+}
+
+}  // namespace nucleon
