@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds in Release with warnings as errors and runs the test suite,
-# then builds the tests again with AddressSanitizer + UndefinedBehaviorSanitizer and runs them.
+# then again with double-precision solver state, then builds the tests again with
+# AddressSanitizer + UndefinedBehaviorSanitizer and runs them.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/deps.sh
@@ -9,6 +10,11 @@ jobs=$(nproc)
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DNUCLEON_WERROR=ON >/dev/null
 cmake --build build -j "$jobs"
 ctest --test-dir build --output-on-failure -j "$jobs"
+
+cmake -S . -B build-double -G Ninja -DCMAKE_BUILD_TYPE=Release -DNUCLEON_WERROR=ON \
+  -DNUCLEON_DOUBLE=ON -DNUCLEON_BUILD_BENCH=OFF >/dev/null
+cmake --build build-double -j "$jobs"
+ctest --test-dir build-double --output-on-failure -j "$jobs"
 
 cmake -S . -B build-sanitize -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DNUCLEON_WERROR=ON \
   -DNUCLEON_SANITIZE=ON -DNUCLEON_BUILD_BENCH=OFF >/dev/null

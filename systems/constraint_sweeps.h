@@ -1,7 +1,7 @@
-// Sweeps over a ConstraintPool for any kernel, one per backend (ARCHITECTURE.md §3): Gauss–Seidel in
-// pool order, Jacobi (corrections from the same state, averaged fixed-order gather) and colored
-// Gauss–Seidel (colors in sequence, each in parallel). Dispatch is per family, never per
-// constraint: the kernel is a template parameter.
+// Sweeps over a ConstraintPool for any kernel, one per backend (ARCHITECTURE.md §3): Gauss–Seidel
+// in coloring order one constraint at a time, Jacobi (corrections from the same state, averaged
+// fixed-order gather) and colored Gauss–Seidel (colors in sequence, each in parallel). Dispatch is
+// per family, never per constraint: the kernel is a template parameter.
 //
 // A sweep may be restricted to some objects (per-object schedules): `objectRuns`, when not null,
 // says for each object index whether its constraints take part in this sweep. A constraint
@@ -84,10 +84,30 @@ NUCLEON_KERNEL void projectInPlace(ConstraintPool<N>& pool, std::size_t c, Parti
 }
 }  // namespace sweep_detail
 
+// The sequential reference: Gauss–Seidel one constraint at a time, in coloring order (all of
+// color 0, then color 1, …, then the overflow range). The order decides stability, not only the
+// rate of convergence. A sweep of sequential projections is one nonlinear Gauss–Seidel iteration
+// on the multipliers' system J W Jᵀ Δλ = −C (Macklin et al. 2016, eq. 18): it applies (D + L)⁻¹,
+// L holding each constraint's couplings to those before it in the order, which is not
+// symmetric. With one sweep per substep the sweep's correction is the whole velocity change, so
+// the non-symmetric part acts as a non-conservative force (our reading of the measurements
+// below), and it is largest where the order runs long chains of constraints that each start from
+// the previous one's result. The pool's own order is such an order: edges sorted by vertex index,
+// so a cloth's edges run along its rows, and one sweep carries a correction the whole width of the
+// cloth. Measured in that order, on a 64×64 cloth hanging from two corners with 10 substeps of one
+// sweep, the total energy rises from 10 J to 10⁵ J within a second, starting on the row between the
+// pins; the reverse of that order diverges alike, while coloring order and a random order, with the
+// same kernel and the same work, lose energy steadily, and ropes (no loops in their constraint
+// graph) are stable in either order. Within a color no two constraints share a free particle,
+// so a sweep carries a correction across at most one constraint per color (at most 15 on
+// the grid cloths). The price is a slower spread of corrections per sweep: the strain left after
+// one second is up to about twice that of the pool's order in the runs that order survives.
+// colored-gs runs this same order with each color in parallel, so it matches this reference up to
+// the rounding of its batched distance path. Needs pool.coloring current (the derived tables).
 template <class Kernel, std::size_t N>
 void solveGaussSeidel(ConstraintPool<N>& pool, const SweepContext& context) {
   const Real invH = 1 / context.h;
-  for (std::size_t c = 0; c < pool.size(); ++c)
+  for (const Index c : pool.coloring.order)
     if (sweep_detail::takesPart(pool, c, context))
       sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH);
 }

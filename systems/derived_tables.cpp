@@ -21,8 +21,9 @@ void buildDerivedTables(ConstraintPools& pools, const ParticlePool& particles, S
       pool.coloring = colorConstraints(tuples, particles.size(), particles.w);
     }
     // Colored Gauss–Seidel stores the pool in color order, so that a color is contiguous in
-    // memory and its sweep streams through the constraint columns. The other backends keep the
-    // mesh order, whose neighbouring constraints share particles (better particle reuse).
+    // memory and its sweep streams through the constraint columns. Sequential Gauss–Seidel
+    // visits the same order through coloring.order (its stable order, constraint_sweeps.h);
+    // Jacobi keeps the mesh order, whose neighbouring constraints share particles.
     if (kind == SolverKind::ColoredGaussSeidel && !pool.coloring.inPlace) {
       pool.permute(pool.coloring.order);
       std::iota(pool.coloring.order.begin(), pool.coloring.order.end(), Index(0));

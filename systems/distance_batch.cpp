@@ -1,5 +1,7 @@
 #include "systems/distance_batch.h"
 
+#include <type_traits>
+
 // The batched path is written for float state on x86-64.
 #if (defined(__x86_64__) || defined(__i386__)) && !defined(NUCLEON_DOUBLE)
 #include <immintrin.h>
@@ -9,6 +11,9 @@
 namespace nucleon {
 
 #if NUCLEON_X86
+
+// The kernel reads positions as packed floats and gathers four-byte lanes.
+static_assert(std::is_same_v<Real, float>, "the batched distance path is float-only");
 
 namespace {
 

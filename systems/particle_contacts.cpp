@@ -70,8 +70,12 @@ inline void projectContact(ContactPool& contacts, const ColliderPool& colliders,
   Vec3 removed = unopposed;
   if (length > colliders.staticFriction[k] * lambda)
     removed *= std::min(Real(1), colliders.friction[k] * lambda / length);
-  p -= removed - contacts.friction[c];
-  contacts.friction[c] = removed;
+  // Only the tangential part of the change is applied: on a curved collider F was taken about
+  // earlier normals, and a step along the tangent plane never re-enters a convex surface.
+  Vec3 change = removed - contacts.friction[c];
+  change -= s.normal * s.normal.dot(change);
+  p -= change;
+  contacts.friction[c] += change;
 }
 
 }  // namespace

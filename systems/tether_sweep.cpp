@@ -89,8 +89,6 @@ inline void projectVertex(const TetherConstraints& pool, Index rank, Vec3* p, co
   _mm256_store_si256(reinterpret_cast<__m256i*>(index), vertex);
   for (int j = 0; j < 8; ++j) p[index[j]] = Vec3(xs[j], ys[j], zs[j]);
 }
-#endif
-
 // Whether ranks [a, a + 8) can go eight at a time: every layer reaching rank a reaches a + 7, and
 // every vertex is free (a pinned vertex has no tethers, but a kinematic change of mass could).
 bool fullBatch(const TetherConstraints& pool, Index a, const Real* w) {
@@ -103,6 +101,8 @@ bool fullBatch(const TetherConstraints& pool, Index a, const Real* w) {
     if (w[pool.particles[layers[0] + r][0]] == 0) return false;
   return true;
 }
+
+#endif
 
 }  // namespace
 

@@ -49,7 +49,15 @@ struct Fixture {
 };
 
 void expectBatchMatchesScalar(bool unilateral) {
-  if (!distanceBatchesAvailable()) GTEST_SKIP() << "no AVX2/FMA on this CPU or a double build";
+#ifdef NUCLEON_DOUBLE
+  // The batched path is float-only (distance_batch.h), so there is nothing to compare. The
+  // comparison is left out of the build, not only skipped: inlined into this function, the
+  // scalar kernel's read of the substep's start positions (only when damped) draws a false
+  // -Wmaybe-uninitialized from GCC 12 in double.
+  (void)unilateral;
+  GTEST_SKIP() << "the batched distance path is float-only";
+#else
+  if (!distanceBatchesAvailable()) GTEST_SKIP() << "no AVX2/FMA on this CPU";
   Fixture batched, scalar;
   const Real h = Real(1.0 / 60), invH = 1 / h;
   const DistanceBatch batch{batched.pool.particles.data(),
@@ -91,6 +99,7 @@ void expectBatchMatchesScalar(bool unilateral) {
     }
   }
   EXPECT_GT(moved, 10);  // the comparison is not between two unchanged states
+#endif
 }
 
 TEST(DistanceBatch, StretchMatchesScalarKernel) {

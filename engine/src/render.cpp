@@ -16,6 +16,12 @@ namespace {
 
 using Vec3f = Eigen::Vector3f;
 
+// Embree takes float vertices whatever the solver's Real is. A non-finite particle is drawn at the
+// origin: Embree's BVH builder assumes finite coordinates.
+Vec3f toRenderPoint(const Vec3& x) {
+  return x.allFinite() ? Vec3f(x.cast<float>()) : Vec3f(Vec3f::Zero());
+}
+
 struct DeviceDeleter {
   void operator()(RTCDevice d) const { rtcReleaseDevice(d); }
 };
@@ -77,7 +83,7 @@ void renderPng(const World& world, const std::string& path, const RenderSettings
       case ObjectKind::Solid:
       case ObjectKind::Collider: {
         std::vector<Vec3f> v;
-        for (const Vec3& p : x) v.push_back(p.allFinite() ? p.cast<float>() : Vec3f::Zero());
+        for (const Vec3& p : x) v.push_back(toRenderPoint(p));
         std::vector<std::array<unsigned, 3>> t(world.surfaceTriangles(id).begin(),
                                                world.surfaceTriangles(id).end());
         if (t.empty()) continue;
@@ -95,7 +101,7 @@ void renderPng(const World& world, const std::string& path, const RenderSettings
             g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, sizeof(unsigned), edges.size()));
         for (std::size_t e = 0; e < edges.size(); ++e) {
           for (int end = 0; end < 2; ++end) {
-            const Vec3f p = x[edges[e][end]].cast<float>();
+            const Vec3f p = toRenderPoint(x[edges[e][end]]);
             float* dst = v + 4 * (2 * e + end);
             dst[0] = p.x(), dst[1] = p.y(), dst[2] = p.z(), dst[3] = radius;
           }
@@ -111,7 +117,7 @@ void renderPng(const World& world, const std::string& path, const RenderSettings
         auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(
             g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), x.size()));
         for (std::size_t i = 0; i < x.size(); ++i) {
-          const Vec3f p = x[i].cast<float>();
+          const Vec3f p = toRenderPoint(x[i]);
           v[4 * i] = p.x(), v[4 * i + 1] = p.y(), v[4 * i + 2] = p.z(), v[4 * i + 3] = radius;
         }
         rtcCommitGeometry(g);
