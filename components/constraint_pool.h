@@ -35,6 +35,9 @@ struct ConstraintPool {
   // Jacobi mass splitting: per particle, w_i times the number of this family's constraints on i.
   std::vector<Real> splitInverseMass;
   bool undamped = true;  // no constraint has damping: the batched distance path applies
+  // The inverse mass of each constraint's particles, in pool order, for batched kernels that load
+  // them with the constraint instead of gathering them per particle.
+  std::vector<std::array<Real, N>> endInverseMass;
 
   std::size_t size() const { return particles.size(); }
 

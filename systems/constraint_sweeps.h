@@ -162,6 +162,7 @@ void solveColored(ConstraintPool<N>& pool, const SweepContext& context) {
       batch.inverseMass = context.particles.w.data();
       batch.inverseH2 = invH * invH;
       batch.unilateral = std::is_same_v<Kernel, TetherKernel>;
+      batch.endInverseMass = pool.endInverseMass.data();
       forEachColorRange(
           pool.coloring, sweep_detail::kGrain, kDistanceBatchSize,
           [&](Index begin, Index end) {

@@ -31,6 +31,10 @@ void buildDerivedTables(ConstraintPools& pools, const ParticlePool& particles, S
     }
     pool.undamped =
         std::all_of(pool.damping.begin(), pool.damping.end(), [](Real tau) { return tau == 0; });
+    pool.endInverseMass.resize(pool.size());
+    for (std::size_t c = 0; c < pool.size(); ++c)
+      for (std::size_t k = 0; k < n; ++k)
+        pool.endInverseMass[c][k] = particles.w[pool.particles[c][k]];
     pool.incidence = buildIncidence(tuples, particles.size());
     pool.splitInverseMass.resize(particles.size());
     for (std::size_t i = 0; i < particles.size(); ++i)

@@ -38,8 +38,17 @@ namespace {
            za = _mm256_i32gather_ps(base + 2, a3, 4);
     __m256 xb = _mm256_i32gather_ps(base, c3, 4), yb = _mm256_i32gather_ps(base + 1, c3, 4),
            zb = _mm256_i32gather_ps(base + 2, c3, 4);
-    const __m256 wa = _mm256_i32gather_ps(b.inverseMass, a, 4);
-    const __m256 wb = _mm256_i32gather_ps(b.inverseMass, c, 4);
+    __m256 wa, wb;
+    if (b.endInverseMass) {
+      const float* pairsOfW = reinterpret_cast<const float*>(b.endInverseMass + k);
+      const __m256 wLow = _mm256_permutevar8x32_ps(_mm256_loadu_ps(pairsOfW), split);
+      const __m256 wHigh = _mm256_permutevar8x32_ps(_mm256_loadu_ps(pairsOfW + 8), split);
+      wa = _mm256_permute2f128_ps(wLow, wHigh, 0x20);
+      wb = _mm256_permute2f128_ps(wLow, wHigh, 0x31);
+    } else {
+      wa = _mm256_i32gather_ps(b.inverseMass, a, 4);
+      wb = _mm256_i32gather_ps(b.inverseMass, c, 4);
+    }
 
     const __m256 dx = _mm256_sub_ps(xa, xb), dy = _mm256_sub_ps(ya, yb), dz = _mm256_sub_ps(za, zb);
     const __m256 length =

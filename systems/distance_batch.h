@@ -25,6 +25,9 @@ struct DistanceBatch {
   const Real* inverseMass = nullptr;
   Real inverseH2 = 0;       // 1/h²
   bool unilateral = false;  // tethers: only C > 0 is corrected
+  // (w_a, w_b) of each constraint in pool order, if the pool has them: two contiguous loads
+  // instead of two gathers of `inverseMass`.
+  const std::array<Real, 2>* endInverseMass = nullptr;
 };
 
 // True when this build and CPU run the batched path (float solver state, AVX2 and FMA).

@@ -50,6 +50,31 @@ inline void projectVertex(const TetherConstraints& pool, Index rank, Vec3* p, co
   pin = _mm256_permute2x128_si256(low, high, 0x31);
 }
 
+// Eight consecutive particles' positions (24 packed floats from `at`) as x, y, z vectors: three
+// loads and a transpose instead of three gathers. The blends pick each coordinate's lanes from
+// the three loads, the permutes put them in order.
+[[gnu::target("avx2,fma")]] inline void loadEight(const float* at, __m256& x, __m256& y,
+                                                  __m256& z) {
+  const __m256 m0 = _mm256_loadu_ps(at), m1 = _mm256_loadu_ps(at + 8),
+               m2 = _mm256_loadu_ps(at + 16);
+  const __m256 ux = _mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x92), m2, 0x24);
+  const __m256 uy = _mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x24), m2, 0x49);
+  const __m256 uz = _mm256_blend_ps(_mm256_blend_ps(m0, m1, 0x49), m2, 0x92);
+  x = _mm256_permutevar8x32_ps(ux, _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5));
+  y = _mm256_permutevar8x32_ps(uy, _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6));
+  z = _mm256_permutevar8x32_ps(uz, _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7));
+}
+
+// The inverse of loadEight: x, y, z vectors back to 24 packed floats at `at`.
+[[gnu::target("avx2,fma")]] inline void storeEight(float* at, __m256 x, __m256 y, __m256 z) {
+  const __m256 ux = _mm256_permutevar8x32_ps(x, _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5));
+  const __m256 uy = _mm256_permutevar8x32_ps(y, _mm256_setr_epi32(5, 0, 3, 6, 1, 4, 7, 2));
+  const __m256 uz = _mm256_permutevar8x32_ps(z, _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7));
+  _mm256_storeu_ps(at, _mm256_blend_ps(_mm256_blend_ps(ux, uy, 0x92), uz, 0x24));
+  _mm256_storeu_ps(at + 8, _mm256_blend_ps(_mm256_blend_ps(ux, uy, 0x24), uz, 0x49));
+  _mm256_storeu_ps(at + 16, _mm256_blend_ps(_mm256_blend_ps(ux, uy, 0x49), uz, 0x92));
+}
+
 // Eight consecutive ranks [a, a + 8), every layer that reaches any of them reaching all eight.
 [[gnu::target("avx2,fma")]] void projectEight(const TetherConstraints& pool, Index a, Vec3* p,
                                               std::size_t layerCount) {
@@ -58,16 +83,37 @@ inline void projectVertex(const TetherConstraints& pool, Index rank, Vec3* p, co
   const __m256 tiny = _mm256_set1_ps(kTiny), zero = _mm256_setzero_ps();
   __m256i vertex, pin;
   loadPairs(pool, layers[0] + a, vertex, pin);
-  const __m256i vertex3 = _mm256_add_epi32(_mm256_slli_epi32(vertex, 1), vertex);
-  __m256 x = _mm256_i32gather_ps(base, vertex3, 4), y = _mm256_i32gather_ps(base + 1, vertex3, 4),
-         z = _mm256_i32gather_ps(base + 2, vertex3, 4);
+  // Ranks of equal tether count are in vertex order, so the eight vertices are often
+  // consecutive particles (a cloth's rows): then they load and store as 24 packed floats.
+  const Index first = static_cast<Index>(_mm256_cvtsi256_si32(vertex));
+  const bool consecutive = pool.particles[layers[0] + a + 7][0] == first + 7;
+  __m256 x, y, z;
+  if (consecutive) {
+    loadEight(base + 3 * std::size_t(first), x, y, z);
+  } else {
+    const __m256i vertex3 = _mm256_add_epi32(_mm256_slli_epi32(vertex, 1), vertex);
+    x = _mm256_i32gather_ps(base, vertex3, 4);
+    y = _mm256_i32gather_ps(base + 1, vertex3, 4);
+    z = _mm256_i32gather_ps(base + 2, vertex3, 4);
+  }
   for (std::size_t k = 0; k < layerCount && layers[k] + a < layers[k + 1]; ++k) {
     const Index c = layers[k] + a;
     if (k > 0) loadPairs(pool, c, vertex, pin);
-    const __m256i pin3 = _mm256_add_epi32(_mm256_slli_epi32(pin, 1), pin);
-    const __m256 dx = _mm256_sub_ps(x, _mm256_i32gather_ps(base, pin3, 4));
-    const __m256 dy = _mm256_sub_ps(y, _mm256_i32gather_ps(base + 1, pin3, 4));
-    const __m256 dz = _mm256_sub_ps(z, _mm256_i32gather_ps(base + 2, pin3, 4));
+    // Neighbouring vertices mostly share their pin in a layer: then one broadcast serves all.
+    const __m256i firstPin = _mm256_set1_epi32(_mm256_cvtsi256_si32(pin));
+    __m256 px, py, pz;
+    if (_mm256_movemask_epi8(_mm256_cmpeq_epi32(pin, firstPin)) == -1) {
+      const Vec3& shared = p[_mm256_cvtsi256_si32(pin)];
+      px = _mm256_set1_ps(shared.x());
+      py = _mm256_set1_ps(shared.y());
+      pz = _mm256_set1_ps(shared.z());
+    } else {
+      const __m256i pin3 = _mm256_add_epi32(_mm256_slli_epi32(pin, 1), pin);
+      px = _mm256_i32gather_ps(base, pin3, 4);
+      py = _mm256_i32gather_ps(base + 1, pin3, 4);
+      pz = _mm256_i32gather_ps(base + 2, pin3, 4);
+    }
+    const __m256 dx = _mm256_sub_ps(x, px), dy = _mm256_sub_ps(y, py), dz = _mm256_sub_ps(z, pz);
     const __m256 length =
         _mm256_sqrt_ps(_mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz))));
     const __m256 constraint = _mm256_sub_ps(length, _mm256_loadu_ps(pool.rest.data() + c));
@@ -79,6 +125,10 @@ inline void projectVertex(const TetherConstraints& pool, Index rank, Vec3* p, co
     x = _mm256_fnmadd_ps(scale, dx, x);
     y = _mm256_fnmadd_ps(scale, dy, y);
     z = _mm256_fnmadd_ps(scale, dz, z);
+  }
+  if (consecutive) {
+    storeEight(reinterpret_cast<float*>(p) + 3 * std::size_t(first), x, y, z);
+    return;
   }
   alignas(32) float xs[8], ys[8], zs[8];
   alignas(32) int index[8];
