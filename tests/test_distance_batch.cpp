@@ -48,27 +48,34 @@ struct Fixture {
   }
 };
 
-void expectBatchMatchesScalar(bool unilateral) {
+// loadedMasses: the batch reads the constraints' end inverse masses from the pool's derived
+// column instead of gathering them per particle.
+void expectBatchMatchesScalar(bool unilateral, bool loadedMasses = false) {
 #ifdef NUCLEON_DOUBLE
   // The batched path is float-only (distance_batch.h), so there is nothing to compare. The
   // comparison is left out of the build, not only skipped: inlined into this function, the
   // scalar kernel's read of the substep's start positions (only when damped) draws a false
   // -Wmaybe-uninitialized from GCC 12 in double.
   (void)unilateral;
+  (void)loadedMasses;
   GTEST_SKIP() << "the batched distance path is float-only";
 #else
   if (!distanceBatchesAvailable()) GTEST_SKIP() << "no AVX2/FMA on this CPU";
   Fixture batched, scalar;
   const Real h = Real(1.0 / 60), invH = 1 / h;
-  const DistanceBatch batch{batched.pool.particles.data(),
-                            batched.pool.rest.data(),
-                            batched.pool.compliance.data(),
-                            batched.pool.compressionCompliance.data(),
-                            batched.pool.lambda.data(),
-                            batched.particles.p.data(),
-                            batched.particles.w.data(),
-                            invH * invH,
-                            unilateral};
+  std::vector<std::array<Real, 2>> endInverseMass;
+  for (const auto& [a, b] : batched.pool.particles)
+    endInverseMass.push_back({batched.particles.w[a], batched.particles.w[b]});
+  DistanceBatch batch{batched.pool.particles.data(),
+                      batched.pool.rest.data(),
+                      batched.pool.compliance.data(),
+                      batched.pool.compressionCompliance.data(),
+                      batched.pool.lambda.data(),
+                      batched.particles.p.data(),
+                      batched.particles.w.data(),
+                      invH * invH,
+                      unilateral};
+  if (loadedMasses) batch.endInverseMass = endInverseMass.data();
   const Index size = static_cast<Index>(batched.pool.size());
   const Index left = projectDistanceBatches(batch, 0, size);
   EXPECT_EQ(left, 32u);  // four batches of eight; the caller projects the rest
@@ -108,6 +115,10 @@ TEST(DistanceBatch, StretchMatchesScalarKernel) {
 
 TEST(DistanceBatch, TetherMatchesScalarKernel) {
   expectBatchMatchesScalar(true);
+}
+
+TEST(DistanceBatch, StretchWithLoadedMassesMatchesScalarKernel) {
+  expectBatchMatchesScalar(false, true);
 }
 
 // Which constraints share a batch must not depend on how the threads split a color: batches
