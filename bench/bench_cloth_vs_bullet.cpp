@@ -3,8 +3,15 @@
 // both engines' strain, and optionally writes every run's figures as CSV.
 //
 //   nucleon_bench_cloth [--n 64,128,256] [--iterations 4,10,20] [--scenes hanging,sphere]
-//                       [--bending off|on|both] [--solvers colored-gs,jacobi] [--threads 2]
-//                       [--repeats 3] [--steps 120] [--warmup 10] [--csv FILE] [--no-bullet]
+//                       [--bending off|on|both] [--solvers colored-gs,jacobi]
+//                       [--tethers on|off|both] [--threads 2] [--repeats 3] [--steps 120]
+//                       [--warmup 10] [--csv FILE] [--no-bullet]
+//
+// Bullet's cloth has no long-range attachments; nucleon's pinned cloth has tethers by default.
+// `--tethers both` (the default) runs every nucleon configuration with and without them, so that
+// the comparison shows both nucleon as it ships and nucleon on exactly Bullet's constraint set.
+// The `tethers` column says which: on, off, or none where the cloth has no tethers to switch
+// (Bullet, or a cloth without pins).
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
@@ -29,6 +36,7 @@ struct Options {
   std::vector<ClothScene> scenes = {ClothScene::Hanging, ClothScene::Sphere};
   std::vector<bool> bending = {false};
   std::vector<SolverKind> solvers = {SolverKind::ColoredGaussSeidel, SolverKind::Jacobi};
+  std::vector<bool> tethers = {true, false};
   int threads = 2;
   int repeats = 3;
   int steps = 120;
@@ -69,6 +77,16 @@ Options parse(int argc, char** argv) {
         o.bending = {false, true};
       else
         throw std::invalid_argument("--bending: expected off, on or both");
+    } else if (a == "--tethers") {
+      const std::string v = value();
+      if (v == "on")
+        o.tethers = {true};
+      else if (v == "off")
+        o.tethers = {false};
+      else if (v == "both")
+        o.tethers = {true, false};
+      else
+        throw std::invalid_argument("--tethers: expected on, off or both");
     } else if (a == "--solvers") {
       o.solvers.clear();
       for (const std::string& s : splitList(value())) {
@@ -94,26 +112,29 @@ Options parse(int argc, char** argv) {
     }
   }
   if (o.warmup >= o.steps) throw std::invalid_argument("--warmup must be below --steps");
-  if (o.scenes.empty() || o.solvers.empty()) throw std::invalid_argument("nothing to run");
+  if (o.scenes.empty() || o.solvers.empty() || o.tethers.empty())
+    throw std::invalid_argument("nothing to run");
   return o;
 }
 
-// The figures of one engine on one case.
+// The figures of one engine configuration on one case.
 struct Summary {
   std::string engine, solver;
+  std::string tethers;  // on, off, or none (Bullet; a cloth without pins)
   int threads = 1;
   RunResult result;
   double medianMs = 0, minMs = 0;
 };
 
-Summary summarise(std::string engine, std::string solver, int threads,
+Summary summarise(std::string engine, std::string solver, std::string tethers, int threads,
                   std::vector<RunResult> runs) {
   // The run with the median step time supplies every figure, so that its stage profile adds up
   // to the step time shown beside it.
   std::sort(runs.begin(), runs.end(),
             [](const RunResult& a, const RunResult& b) { return a.msPerStep < b.msPerStep; });
   const RunResult& middle = runs[runs.size() / 2];
-  return {std::move(engine), std::move(solver),     threads, middle,
+  if (tethers == "on" && middle.tetherCount == 0) tethers = "none";  // nothing to switch
+  return {std::move(engine), std::move(solver),     std::move(tethers), threads, middle,
           middle.msPerStep,  runs.front().msPerStep};
 }
 
@@ -121,7 +142,7 @@ void writeCsvHeader(std::ostream& out) {
   out << "scene,bending,n,iterations,engine,solver,threads,repeats,ms_per_step,ms_min,"
          "forces_ms,predict_ms,solve_ms,collisions_ms,update_ms,projections_per_s,max_strain,"
          "mean_strain,peak_max_strain,average_mean_strain,penetration_m,lowest_y,finite,state_"
-         "hash\n";
+         "hash,tethers,p99_strain\n";
 }
 
 void writeCsvRow(std::ostream& out, const ClothCase& c, int repeats, const Summary& s) {
@@ -134,8 +155,8 @@ void writeCsvRow(std::ostream& out, const ClothCase& c, int repeats, const Summa
       << r.solveMs << ',' << r.collisionsMs << ',' << r.updateMs << ',' << r.projectionsPerSecond
       << ',' << r.finalStrain.max << ',' << r.finalStrain.mean << ',' << r.peakMaxStrain << ','
       << r.averageMeanStrain << ',' << (c.scene == ClothScene::Sphere ? r.penetration : 0.0) << ','
-      << r.lowestY << ',' << (r.finite ? 1 : 0) << ',' << (s.engine == "nucleon" ? hash : "")
-      << '\n';
+      << r.lowestY << ',' << (r.finite ? 1 : 0) << ',' << (s.engine == "nucleon" ? hash : "") << ','
+      << s.tethers << ',' << r.finalStrainP99 << '\n';
 }
 
 int run(const Options& o) {
@@ -149,8 +170,8 @@ int run(const Options& o) {
     if (!csv) throw std::runtime_error(o.csv + ": cannot write");
     writeCsvHeader(csv);
   }
-  std::printf("%-8s %4s %4s %4s | %-14s %9s %9s %9s | %6s\n", "scene", "N", "K", "bend", "engine",
-              "ms/step", "maxstrain", "meanstr", "ratio");
+  std::printf("%-8s %4s %4s %4s | %-14s %-7s %9s %9s %9s %9s | %6s\n", "scene", "N", "K", "bend",
+              "engine", "tethers", "ms/step", "maxstrain", "meanstr", "p99strain", "ratio");
   for (ClothScene scene : o.scenes)
     for (bool bending : o.bending)
       for (int n : o.resolutions)
@@ -163,23 +184,38 @@ int run(const Options& o) {
           c.steps = o.steps;
           c.warmup = o.warmup;
           const ClothMesh mesh = makeClothMesh(c);
-          // Alternate: each repeat runs every engine once, Bullet first.
+          // Every nucleon configuration: solver × tethers.
+          struct Configuration {
+            SolverKind solver;
+            bool tethers;
+          };
+          std::vector<Configuration> configurations;
+          for (SolverKind solver : o.solvers)
+            for (bool tethers : o.tethers) configurations.push_back({solver, tethers});
+          // Alternate: each repeat runs every configuration once, Bullet first.
           std::vector<RunResult> bulletRuns;
-          std::vector<std::vector<RunResult>> nucleonRuns(o.solvers.size());
+          std::vector<std::vector<RunResult>> nucleonRuns(configurations.size());
           for (int rep = 0; rep < o.repeats; ++rep) {
             if (withBullet) bulletRuns.push_back(runBulletCloth(c, mesh));
-            for (std::size_t s = 0; s < o.solvers.size(); ++s)
-              nucleonRuns[s].push_back(runNucleonCloth(c, mesh, o.solvers[s], o.threads));
+            for (std::size_t s = 0; s < configurations.size(); ++s) {
+              ClothCase variant = c;
+              variant.tethers = configurations[s].tethers;
+              nucleonRuns[s].push_back(
+                  runNucleonCloth(variant, mesh, configurations[s].solver, o.threads));
+            }
           }
           std::vector<Summary> rows;
-          if (withBullet) rows.push_back(summarise("bullet", "btSoftBody", 1, bulletRuns));
-          for (std::size_t s = 0; s < o.solvers.size(); ++s)
-            rows.push_back(summarise("nucleon", toString(o.solvers[s]), o.threads, nucleonRuns[s]));
+          if (withBullet) rows.push_back(summarise("bullet", "btSoftBody", "none", 1, bulletRuns));
+          for (std::size_t s = 0; s < configurations.size(); ++s)
+            rows.push_back(summarise("nucleon", toString(configurations[s].solver),
+                                     configurations[s].tethers ? "on" : "off", o.threads,
+                                     nucleonRuns[s]));
           for (const Summary& row : rows) {
             const std::string label = row.engine == "bullet" ? "bullet" : row.solver;
-            std::printf("%-8s %4d %4d %4s | %-14s %9.3f %9.4f %9.5f |", toString(scene), n, k,
-                        bending ? "yes" : "no", label.c_str(), row.medianMs,
-                        row.result.finalStrain.max, row.result.finalStrain.mean);
+            std::printf("%-8s %4d %4d %4s | %-14s %-7s %9.3f %9.4f %9.5f %9.5f |", toString(scene),
+                        n, k, bending ? "yes" : "no", label.c_str(), row.tethers.c_str(),
+                        row.medianMs, row.result.finalStrain.max, row.result.finalStrain.mean,
+                        row.result.finalStrainP99);
             if (withBullet && row.engine == "nucleon")
               std::printf(" %5.2fx", rows.front().medianMs / row.medianMs);
             std::printf("\n");

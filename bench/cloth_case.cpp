@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "nucleon/shapes.h"
+#include "systems/measures.h"
 
 namespace nucleon::bench {
 
@@ -63,6 +64,15 @@ double spherePenetration(const ClothCase& c, const std::vector<Vec3>& positions)
 void finishRun(const ClothCase& c, const ClothMesh& mesh, const std::vector<Vec3>& positions,
                RunResult& result) {
   result.finalStrain = measureStrain(mesh, positions);
+  // The same definition as nucleon's own strain_p99, over the same edges for both engines.
+  std::vector<double> strains;
+  strains.reserve(mesh.edges.size());
+  for (std::size_t i = 0; i < mesh.edges.size(); ++i) {
+    const auto& e = mesh.edges[i];
+    strains.push_back(
+        std::abs((positions[e[1]] - positions[e[0]]).norm() / mesh.restLength[i] - 1.0));
+  }
+  result.finalStrainP99 = nearestRankPercentile(strains, 0.99);
   result.penetration = spherePenetration(c, positions);
   result.lowestY = 1e30;
   for (const Vec3& v : positions) {

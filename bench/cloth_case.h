@@ -21,6 +21,10 @@ struct ClothCase {
   int resolution = 64;  // N: vertices along each side
   int iterations = 10;  // K: constraint iterations per step
   bool bending = false;
+  // nucleon's long-range attachments (Material::tethers) for a pinned cloth. Bullet has no such
+  // constraint, so the comparison runs nucleon both with them (its default) and without them
+  // (the same constraint set as Bullet's).
+  bool tethers = true;
   int steps = 120;  // simulated steps per run (2 s)
   int warmup = 10;  // leading steps left out of the timing (first-step setup, caches)
   double dt = 1.0 / 60;
@@ -57,16 +61,18 @@ struct RunResult {
   double forcesMs = 0, predictMs = 0, solveMs = 0, collisionsMs = 0, updateMs = 0;
   double projectionsPerSecond = 0;  // nucleon only
   StrainStats finalStrain;          // after the last step
+  double finalStrainP99 = 0;        // 99th percentile of the same, nearest rank
   double peakMaxStrain = 0;         // largest max strain seen after any step
   double averageMeanStrain = 0;     // mean strain averaged over all steps (less phase-dependent)
   double penetration = 0;           // sphere scene: deepest vertex inside the sphere
   double lowestY = 0;
   std::uint64_t stateHash = 0;  // nucleon only
+  std::size_t tetherCount = 0;  // nucleon only: tether constraints in the world
   bool finite = true;
 };
 
-// Fills the end-of-run figures (final strain, penetration, lowest point, finiteness) from the
-// positions after the last step.
+// Fills the end-of-run figures (final strain and its 99th percentile, penetration, lowest
+// point, finiteness) from the positions after the last step.
 void finishRun(const ClothCase& c, const ClothMesh& mesh, const std::vector<Vec3>& positions,
                RunResult& result);
 

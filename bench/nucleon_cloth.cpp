@@ -1,6 +1,7 @@
 // The comparison cloth in nucleon: the shared mesh, hard stretch (compliance 0) on every edge,
-// K sweeps per substep, one substep, the engine's defaults otherwise (tethers included: they are
-// part of how nucleon holds a pinned cloth and are counted in its projections and time).
+// K sweeps per substep, one substep, the engine's defaults otherwise. Tethers as the case says:
+// on, they are part of how nucleon holds a pinned cloth and are counted in its projections and
+// time; off, nucleon solves the same constraint set as Bullet.
 #include <algorithm>
 #include <chrono>
 
@@ -26,7 +27,9 @@ RunResult runNucleonCloth(const ClothCase& c, const ClothMesh& mesh, SolverKind 
     sphere.staticFriction = c.friction;
     world.addSphereCollider(sphere);
   }
-  world.addCloth(mesh.def);
+  ObjectDef cloth = mesh.def;
+  cloth.material.tethers = c.tethers;
+  world.addCloth(cloth);
 
   RunResult r;
   std::vector<Vec3> x(world.particleCount());
@@ -54,6 +57,7 @@ RunResult runNucleonCloth(const ClothCase& c, const ClothMesh& mesh, SolverKind 
   r.projectionsPerSecond = timed > 0 ? double(p.projections) / timed : 0;
   finishRun(c, mesh, x, r);
   r.stateHash = world.stateHash();
+  r.tetherCount = world.constraintCount(ConstraintFamily::Tether);
   return r;
 }
 

@@ -2,7 +2,8 @@
 # Runs the whole benchmark set on this machine and writes bench/results/<machine>/:
 #   machine.md      the machine, compiler, Bullet version and commit the figures belong to
 #   peer.csv        nucleon against Bullet's btSoftBody on the same cloth (bench/README.md):
-#                   hanging (N = 64, 128, 256; K = 4, 10, 20), hanging with bending, on a sphere
+#                   hanging (N = 64, 128, 256; K = 4, 10, 20; nucleon with its tethers on and
+#                   off, as Bullet has none), hanging with bending, on a sphere
 #   scaling.csv     `nucleon bench` thread sweeps, 1 .. nproc threads, every backend
 #   systems_Sweep.csv, systems_Contacts.csv   Google Benchmark: one sweep of each constraint
 #                   family and backend; contact projection
@@ -10,25 +11,39 @@
 #                   fitted scaling model
 #   ms_vs_n.png, speedup.png, strain_vs_iterations.png   (gnuplot)
 #
-# Usage: bash scripts/bench.sh [--quick]
-#   --quick   one repeat, N = 64 and 128 only, fewer steps: a smoke run of the pipeline
-# Set NUCLEON_BENCH_MACHINE to name the results folder (default: <cores>core-<cpu model>).
+# Usage: bash scripts/bench.sh [--quick] [--peer-only]
+#   --quick       one repeat, N = 64 and 128 only, fewer steps: a smoke run of the pipeline
+#   --peer-only   only the comparison with Bullet (peer.csv), then the report; the thread scaling
+#                 and per-system CSV files already in the folder are kept as they are (machine.md
+#                 says which parts this run measured)
+# Set NUCLEON_BENCH_MACHINE to name the results folder (default: <cores>core-<cpu model>), and
+# NUCLEON_BENCH_BUILD to use an existing Release build folder as it is configured (default: a
+# build-bench folder configured here, without the tests).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-quick=0
-[[ "${1:-}" == "--quick" ]] && quick=1
+quick=0 peer_only=0
+for arg in "$@"; do
+  case "$arg" in
+    --quick) quick=1 ;;
+    --peer-only) peer_only=1 ;;
+    *) echo "usage: bash scripts/bench.sh [--quick] [--peer-only]" >&2; exit 2 ;;
+  esac
+done
+started=$(date +%s)
 
 bash scripts/deps.sh bench
 jobs=$(nproc)
-cmake -S . -B build-bench -G Ninja -DCMAKE_BUILD_TYPE=Release -DNUCLEON_BUILD_TESTS=OFF >/dev/null
-cmake --build build-bench -j "$jobs" --target nucleon_app nucleon_bench_cloth nucleon_bench_systems
+bin=${NUCLEON_BENCH_BUILD:-build-bench}
+if [[ -z "${NUCLEON_BENCH_BUILD:-}" ]]; then
+  cmake -S . -B "$bin" -G Ninja -DCMAKE_BUILD_TYPE=Release -DNUCLEON_BUILD_TESTS=OFF >/dev/null
+fi
+cmake --build "$bin" -j "$jobs" --target nucleon_app nucleon_bench_cloth nucleon_bench_systems
 
 cpu=$(grep -m1 "model name" /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')
 machine=${NUCLEON_BENCH_MACHINE:-${jobs}core-$(echo "$cpu" | tr -cs 'A-Za-z0-9' '-' |
   sed 's/-*$//' | cut -c1-40)}
 out=bench/results/$machine
 mkdir -p "$out"
-bin=build-bench
 
 repeats=3 sizes=64,128,256 steps=120 scaling_steps=100
 if ((quick)); then repeats=1 sizes=64,128 steps=40 scaling_steps=20; fi
@@ -45,25 +60,35 @@ threads=$(seq -s, 1 "$jobs")
   echo "- Date: $(date -u +%Y-%m-%d)"
   echo "- Repeats per configuration: $repeats (median reported); $steps steps per cloth run, the"
   echo "  first 10 untimed"
+  if ((peer_only)); then
+    echo "- This run measured the comparison with Bullet only; the thread scaling and per-system"
+    echo "  tables are from an earlier run in this folder"
+  fi
 } >"$out/machine.md"
 
-echo "== cloth against Bullet (hanging, structural links)"
+echo "== cloth against Bullet (hanging, structural links; nucleon tethers on and off)"
 "$bin/bench/nucleon_bench_cloth" --n "$sizes" --iterations 4,10,20 --scenes hanging \
-  --bending off --solvers colored-gs,jacobi --threads "$jobs" --repeats "$repeats" \
-  --steps "$steps" --csv "$out/peer_hanging.csv"
-echo "== cloth against Bullet (hanging, with bending)"
+  --bending off --solvers colored-gs,jacobi --tethers both --threads "$jobs" \
+  --repeats "$repeats" --steps "$steps" --csv "$out/peer_hanging.csv"
+echo "== cloth against Bullet (hanging, with bending; nucleon tethers on and off)"
 "$bin/bench/nucleon_bench_cloth" --n "$sizes" --iterations 10 --scenes hanging --bending on \
-  --solvers colored-gs --threads "$jobs" --repeats "$repeats" --steps "$steps" \
+  --solvers colored-gs --tethers both --threads "$jobs" --repeats "$repeats" --steps "$steps" \
   --csv "$out/peer_bending.csv"
-echo "== cloth against Bullet (dropped on a sphere)"
+echo "== cloth against Bullet (dropped on a sphere: a free cloth, no tethers)"
 "$bin/bench/nucleon_bench_cloth" --n "$sizes" --iterations 10 --scenes sphere \
-  --solvers colored-gs,gauss-seidel --threads "$jobs" --repeats "$repeats" --steps "$steps" \
-  --csv "$out/peer_sphere.csv"
+  --solvers colored-gs,gauss-seidel --tethers on --threads "$jobs" --repeats "$repeats" \
+  --steps "$steps" --csv "$out/peer_sphere.csv"
 {
   head -1 "$out/peer_hanging.csv"
   for f in hanging bending sphere; do tail -n +2 "$out/peer_$f.csv"; done
 } >"$out/peer.csv"
 rm "$out"/peer_hanging.csv "$out"/peer_bending.csv "$out"/peer_sphere.csv
+
+if ((peer_only)); then
+  bash bench/report.sh "$out"
+  echo "results: $out ($(($(date +%s) - started)) s)"
+  exit 0
+fi
 
 echo "== thread scaling"
 scaling_scenes="cloth_hang_128 cloth_hang_256 cloth_sphere solid_jelly"
@@ -83,4 +108,4 @@ for family in Sweep Contacts; do
 done
 
 bash bench/report.sh "$out"
-echo "results: $out"
+echo "results: $out ($(($(date +%s) - started)) s)"

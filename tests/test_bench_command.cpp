@@ -1,5 +1,6 @@
 // `nucleon bench`: a thread sweep reports one row per configuration, the deterministic backends
 // give the same final state at every thread count, and bad input is rejected with exit code 2.
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -20,6 +21,19 @@ std::vector<std::string> readLines(const std::string& path) {
   return lines;
 }
 
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> fields;
+  std::istringstream in(line);
+  for (std::string field; std::getline(in, field, ',');) fields.push_back(field);
+  return fields;
+}
+
+std::size_t column(const std::vector<std::string>& header, const std::string& name) {
+  const auto at = std::find(header.begin(), header.end(), name);
+  EXPECT_NE(at, header.end()) << "no column " << name;
+  return static_cast<std::size_t>(at - header.begin());
+}
+
 TEST(BenchCommand, ThreadSweepWritesOneRowPerConfigurationWithEqualHashes) {
   const std::string csv =
       (std::filesystem::temp_directory_path() / "nucleon_bench_command_test.csv").string();
@@ -33,10 +47,19 @@ TEST(BenchCommand, ThreadSweepWritesOneRowPerConfigurationWithEqualHashes) {
   const std::vector<std::string> lines = readLines(csv);
   ASSERT_EQ(lines.size(), 5u);  // header + 2 solvers × 2 thread counts
   EXPECT_EQ(lines[0].rfind("scene,solver,iterations,threads", 0), 0u);
+  const std::vector<std::string> header = split(lines[0]);
+  const std::size_t sameHash = column(header, "same_hash");
+  const std::size_t recoveries = column(header, "recoveries");
+  const std::size_t nanCount = column(header, "nan_count");
+  ASSERT_LT(std::max({sameHash, recoveries, nanCount}), header.size());
   for (std::size_t i = 1; i < lines.size(); ++i) {
-    // The last column says whether the final state equals the first thread count's.
-    EXPECT_EQ(lines[i].back(), '1') << lines[i];
-    EXPECT_NE(lines[i].find("cloth_hang,"), std::string::npos);
+    const std::vector<std::string> row = split(lines[i]);
+    ASSERT_EQ(row.size(), header.size()) << lines[i];
+    // Whether the final state equals the first thread count's.
+    EXPECT_EQ(row[sameHash], "1") << lines[i];
+    EXPECT_EQ(row[recoveries], "0") << lines[i];
+    EXPECT_EQ(row[nanCount], "0") << lines[i];
+    EXPECT_EQ(row[0], "cloth_hang");
   }
   EXPECT_NE(out.str().find("colored-gs"), std::string::npos);
   std::filesystem::remove(csv);

@@ -25,8 +25,9 @@ const char* const kBenchHelp =
     "  --csv FILE        also write one CSV row per configuration\n"
     "Per configuration: ms/step (median of repeats), per-stage ms/step from the engine's\n"
     "profile, million constraint projections per second, speedup and parallel efficiency\n"
-    "against the first thread count, max/mean strain and the final state hash ('same' when it\n"
-    "equals the hash at the first thread count).\n";
+    "against the first thread count, max/mean strain, the repairs the step made (recoveries,\n"
+    "warm-up included; 0 in a healthy run) and the final state hash ('same' when it equals the\n"
+    "hash at the first thread count).\n";
 
 namespace {
 
@@ -102,6 +103,7 @@ struct Run {
   double msPerStep = 0;
   StepProfile profile;
   Measures measures;
+  Recoveries recoveries;  // over the whole run, warm-up included
   std::uint64_t hash = 0;
   std::size_t particles = 0;
 };
@@ -119,14 +121,14 @@ Run runOnce(const Scene& scene, const BenchOptions& o) {
   const auto start = Clock::now();
   for (int i = 0; i < o.steps; ++i) world.step(dt);
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  return {seconds * 1e3 / o.steps, world.profile(), world.measure(), world.stateHash(),
-          world.particleCount()};
+  return {seconds * 1e3 / o.steps, world.profile(),   world.measure(),
+          world.recoveries(),      world.stateHash(), world.particleCount()};
 }
 
 const char* kCsvHeader =
     "scene,solver,iterations,threads,particles,steps,repeats,ms_per_step,ms_min,forces_ms,"
     "predict_ms,solve_ms,collisions_ms,update_ms,mprojections_per_s,speedup,efficiency,"
-    "max_strain,mean_strain,state_hash,same_hash\n";
+    "max_strain,mean_strain,state_hash,same_hash,strain_p99,recoveries,nan_count\n";
 
 }  // namespace
 
@@ -145,9 +147,9 @@ int runBench(const std::vector<std::string>& args, std::ostream& out, std::ostre
   }
   char line[512];
   std::snprintf(line, sizeof line,
-                "%-16s %-12s %3s %3s %9s %7s %7s %7s %7s %7s %8s %6s %5s %9s %9s %s\n", "scene",
+                "%-16s %-12s %3s %3s %9s %7s %7s %7s %7s %7s %8s %6s %5s %9s %9s %5s %s\n", "scene",
                 "solver", "K", "T", "ms/step", "forces", "predict", "solve", "contact", "update",
-                "Mproj/s", "speed", "eff", "maxstrain", "meanstr", "state hash");
+                "Mproj/s", "speed", "eff", "maxstrain", "meanstr", "recov", "state hash");
   out << line;
   for (Scene scene : scenes) {
     if (o.iterations >= 0) {
@@ -177,13 +179,17 @@ int runBench(const std::vector<std::string>& args, std::ostream& out, std::ostre
         const double speedup = baseMs / median.msPerStep;
         const double efficiency = speedup * baseThreads / threads;
         const bool same = median.hash == baseHash;
+        // Same meaning as nan_count in `nucleon run --stats`: non-finite values repaired during
+        // the run plus those left in the final state.
+        const std::uint64_t nanCount = median.recoveries.nonFinite + median.measures.nanCount;
         std::snprintf(line, sizeof line,
                       "%-16s %-12s %3d %3d %9.3f %7.3f %7.3f %7.3f %7.3f %7.3f %8.1f %5.2fx %5.2f "
-                      "%9.4f %9.5f %s%s\n",
+                      "%9.4f %9.5f %5llu %s%s\n",
                       scene.name.c_str(), toString(kind), scene.solver.iterations, threads,
                       median.msPerStep, perStep(p.forces), perStep(p.predict), perStep(p.solve),
                       perStep(p.collisions), perStep(p.update), mproj, speedup, efficiency,
                       median.measures.maxStrain, median.measures.meanStrain,
+                      static_cast<unsigned long long>(median.recoveries.total()),
                       cli::hex16(median.hash).c_str(), same ? " same" : " DIFFERENT");
         out << line << std::flush;
         if (csv)
@@ -194,7 +200,8 @@ int runBench(const std::vector<std::string>& args, std::ostream& out, std::ostre
               << perStep(p.collisions) << ',' << perStep(p.update) << ',' << mproj << ',' << speedup
               << ',' << efficiency << ',' << median.measures.maxStrain << ','
               << median.measures.meanStrain << ',' << cli::hex16(median.hash) << ','
-              << (same ? 1 : 0) << '\n';
+              << (same ? 1 : 0) << ',' << median.measures.strainP99 << ','
+              << median.recoveries.total() << ',' << nanCount << '\n';
       }
     }
   }

@@ -1,6 +1,7 @@
 // `nucleon bench`: runs scenes headless at several thread counts and reports step time (median
 // of repeats, warm-up excluded), the engine's per-stage profile, constraint projections per
-// second, parallel speedup and efficiency, strain, and the final state hash.
+// second, parallel speedup and efficiency, strain, the repairs the step made, and the final
+// state hash.
 #pragma once
 
 #include <iosfwd>

@@ -199,6 +199,28 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
   const double wall = std::chrono::duration<double>(Clock::now() - wallStart).count();
   const Measures m = world.measure();
   const double msPerStep = stepSeconds * 1e3 / scene.frames;
+  // The world is new and `run` steps it once per frame, so the world's counters cover exactly
+  // this run and its 1-based step of the first repair is the frame of the stats.
+  const Recoveries& recoveries = world.recoveries();
+  const nlohmann::json firstRecoveryFrame =
+      recoveries.firstStep > 0 ? nlohmann::json(recoveries.firstStep) : nlohmann::json();
+  // nan_count: non-finite values seen or repaired during the run. Each non-finite repair is one
+  // particle whose new position or velocity was not finite (it kept its position and lost its
+  // velocity, so the value is gone from the state); to those add the non-finite position and
+  // velocity components still in the state at the end, which a healthy run never has. A run
+  // that met none reports 0.
+  const std::uint64_t nanCount = recoveries.nonFinite + m.nanCount;
+  // Per family where the figure means something: the distance families (stretch is two-sided,
+  // a tether limits from above only).
+  nlohmann::json strainByFamily = nlohmann::json::object();
+  if (world.constraintCount(ConstraintFamily::Stretch) > 0)
+    strainByFamily["stretch"] = {{"max", m.maxStrain},
+                                 {"mean", m.meanStrain},
+                                 {"p99", m.strainP99},
+                                 {"max_stretch", m.maxStretch},
+                                 {"max_compression", m.maxCompression}};
+  if (world.constraintCount(ConstraintFamily::Tether) > 0)
+    strainByFamily["tether"] = {{"max_violation", m.maxTetherViolation}};
 
   nlohmann::json constraints = nlohmann::json::object();
   for (std::size_t f = 0; f < kConstraintFamilyCount; ++f)
@@ -223,9 +245,18 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
       {"ms_per_step", msPerStep},
       {"max_strain", m.maxStrain},
       {"mean_strain", m.meanStrain},
+      {"strain_p99", m.strainP99},
+      {"max_stretch", m.maxStretch},
+      {"max_compression", m.maxCompression},
+      {"max_tether_violation", m.maxTetherViolation},
+      {"strain_by_family", strainByFamily},
       {"intersections", nullptr},
       {"contacts", m.contacts},
-      {"nan_count", m.nanCount},
+      {"nan_count", nanCount},
+      {"recoveries", recoveries.total()},
+      {"recoveries_by_kind",
+       {{"non_finite", recoveries.nonFinite}, {"missed_contacts", recoveries.missedContacts}}},
+      {"first_recovery_frame", firstRecoveryFrame},
       {"min_height", m.minHeight},
       {"volume_ratio", m.volumeRatio >= 0 ? nlohmann::json(m.volumeRatio) : nlohmann::json()},
       {"energy", energy},
@@ -243,8 +274,10 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
       << " stretch constraints, " << toString(scene.solver.kind) << " x" << scene.solver.iterations
       << ", " << world.threads() << " threads\n"
       << std::setprecision(4) << "  " << msPerStep << " ms/step, max strain " << m.maxStrain
-      << ", mean strain " << m.meanStrain << ", min height " << m.minHeight << ", NaN "
-      << m.nanCount << ", state " << hex16(world.stateHash()) << '\n';
+      << ", mean strain " << m.meanStrain << ", p99 strain " << m.strainP99 << ", min height "
+      << m.minHeight << ", NaN " << nanCount << ", recoveries " << recoveries.total();
+  if (recoveries.firstStep > 0) out << " (first at frame " << recoveries.firstStep << ')';
+  out << ", state " << hex16(world.stateHash()) << '\n';
   if (!o.renderFile.empty()) out << "  picture: " << o.renderFile << '\n';
   if (!o.statsFile.empty()) out << "  stats: " << o.statsFile << '\n';
   if (!o.outDir.empty()) out << "  meshes: " << o.outDir << '\n';

@@ -401,9 +401,13 @@ int World::sweepsPerSubstep(ConstraintFamily family) const {
 Measures World::measure() const {
   const WorldState& s = impl_->state;
   Measures m;
-  const StrainStats strain = measureStrain(s.constraints.stretch, s.particles.x);
+  const StrainDistribution strain = measureStrainDistribution(s.constraints.stretch, s.particles.x);
   m.maxStrain = strain.max;
   m.meanStrain = strain.mean;
+  m.strainP99 = strain.p99;
+  m.maxStretch = strain.maxStretch;
+  m.maxCompression = strain.maxCompression;
+  m.maxTetherViolation = maxTetherViolation(s.constraints.tether, s.particles.x);
   m.kineticEnergy = kineticEnergy(s.particles);
   m.potentialEnergy = potentialEnergy(s.particles, s.gravity);
   m.nanCount = countNonFinite(s.particles);

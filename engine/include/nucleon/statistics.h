@@ -39,9 +39,20 @@ struct Recoveries {
 struct Measures {
   double maxStrain = 0;   // max |L/L0 − 1| over stretch constraints
   double meanStrain = 0;  // mean of the same
+  // 99th percentile of the same (nearest rank: the smallest value that at least 99% of the
+  // constraints do not exceed); unlike the max, one bad edge does not decide it.
+  double strainP99 = 0;
+  // The two signs of the strain apart: the largest L/L0 − 1 and the largest 1 − L/L0, each 0
+  // when no constraint is longer (shorter) than at rest. Cloth resists stretch and buckles under
+  // compression, so the two mean different things.
+  double maxStretch = 0;
+  double maxCompression = 0;
+  // Largest (d − d_rest)/d_rest over the tethers (a tether only limits from above); 0 when there
+  // are none or none is violated.
+  double maxTetherViolation = 0;
   double kineticEnergy = 0;
   double potentialEnergy = 0;  // −m g·x summed over free particles
-  std::size_t nanCount = 0;    // non-finite position or velocity components
+  std::size_t nanCount = 0;    // non-finite position or velocity components now
   double minHeight = 0;        // lowest particle coordinate along −gravity (y if gravity is 0)
   double volumeRatio = -1;     // current / rest volume of closed objects; −1 if there are none
   std::size_t contacts = 0;    // particles touching the ground plane or a sphere collider
