@@ -6,7 +6,7 @@
 
 #include "components/constraint_pools.h"
 #include "components/simplicial_complex.h"
-#include "nucleon/world.h"
+#include "nucleon/object_def.h"
 
 namespace nucleon {
 
