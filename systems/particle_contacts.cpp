@@ -6,6 +6,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
+#include <tbb/parallel_scan.h>
 
 namespace nucleon {
 namespace {
@@ -103,12 +104,18 @@ void detectContacts(ContactPool& contacts, const ColliderPool& colliders,
                       }
                     });
   // Exclusive scan: where each particle's run starts, so that the pool is in particle order.
-  Index total = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const Index count = contacts.runStart[i];
-    contacts.runStart[i] = total;
-    total += count;
-  }
+  // Integer sums: the parallel scan gives the same offsets for any partitioning.
+  const Index total = tbb::parallel_scan(
+      tbb::blocked_range<std::size_t>(0, n, kParticleGrain), Index(0),
+      [&](const tbb::blocked_range<std::size_t>& r, Index sum, bool final) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Index count = contacts.runStart[i];
+          if (final) contacts.runStart[i] = sum;
+          sum += count;
+        }
+        return sum;
+      },
+      std::plus<>());
   contacts.runStart[n] = total;
   contacts.resize(total);
   // Pass 2: fill the runs.

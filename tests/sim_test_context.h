@@ -1,7 +1,11 @@
 // Helpers shared by the dynamics tests: small worlds built the way a user would build them.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <string>
+#include <vector>
 
 #include "nucleon/shapes.h"
 #include "nucleon/world.h"
@@ -29,6 +33,17 @@ inline World hangingCloth(int n, int iterations, int substeps = 1, int threads =
   world.setThreads(threads);
   world.addCloth(cloth);
   return world;
+}
+
+// The names (file stems) of every scene in the bundled folder, sorted, so that a new scene is
+// covered by the tests over all scenes without a new test.
+inline std::vector<std::string> bundledSceneNames() {
+  std::vector<std::string> names;
+  for (const auto& entry :
+       std::filesystem::directory_iterator(std::string(NUCLEON_ASSETS_DIR) + "/scenes"))
+    if (entry.path().extension() == ".json") names.push_back(entry.path().stem().string());
+  std::sort(names.begin(), names.end());
+  return names;
 }
 
 inline void simulate(World& world, int steps, double dt = 1.0 / 60) {

@@ -12,22 +12,13 @@
 
 #include "engine/app/cli.h"
 #include "nucleon/scene.h"
+#include "sim_test_context.h"
 
 using namespace nucleon;
 
 namespace {
 Scene bundled(const std::string& name) {
   return loadScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/" + name + ".json");
-}
-
-// Every scene file in the bundled folder, so that a new scene is covered without a new test.
-std::vector<std::string> bundledSceneNames() {
-  std::vector<std::string> names;
-  for (const auto& entry :
-       std::filesystem::directory_iterator(std::string(NUCLEON_ASSETS_DIR) + "/scenes"))
-    if (entry.path().extension() == ".json") names.push_back(entry.path().stem().string());
-  std::sort(names.begin(), names.end());
-  return names;
 }
 
 class EveryBundledScene : public testing::TestWithParam<std::string> {};
@@ -51,7 +42,8 @@ TEST_P(EveryBundledScene, RunsWithoutRepairsOrNonFiniteValues) {
   EXPECT_EQ(j.at("nan_count").get<long long>(), 0);
 }
 
-INSTANTIATE_TEST_SUITE_P(BundledScenes, EveryBundledScene, testing::ValuesIn(bundledSceneNames()),
+INSTANTIATE_TEST_SUITE_P(BundledScenes, EveryBundledScene,
+                         testing::ValuesIn(test::bundledSceneNames()),
                          [](const testing::TestParamInfo<std::string>& info) {
                            return info.param;  // scene names are identifiers: [a-z0-9_]
                          });

@@ -91,7 +91,7 @@ TEST(ContactPool, IsEmptiedWhenTheCollidersGo) {
 class SceneDeterminism : public testing::TestWithParam<std::string> {};
 
 TEST_P(SceneDeterminism, SameStateForOneAndTwoThreads) {
-  Scene scene = loadScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/" + GetParam());
+  Scene scene = loadScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/" + GetParam() + ".json");
   // Enough steps for every scene to reach its contacts or its pins' pull; few enough for the
   // sanitizer build.
   const int steps = scene.objects.front().def.vertices.size() > 5000 ? 4 : 30;
@@ -110,19 +110,9 @@ TEST_P(SceneDeterminism, SameStateForOneAndTwoThreads) {
   }
 }
 
-std::vector<std::string> bundledScenes() {
-  std::vector<std::string> names;
-  for (const auto& entry :
-       std::filesystem::directory_iterator(std::string(NUCLEON_ASSETS_DIR) + "/scenes"))
-    if (entry.path().extension() == ".json") names.push_back(entry.path().filename().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
-
-INSTANTIATE_TEST_SUITE_P(Bundled, SceneDeterminism, testing::ValuesIn(bundledScenes()),
+INSTANTIATE_TEST_SUITE_P(Bundled, SceneDeterminism, testing::ValuesIn(test::bundledSceneNames()),
                          [](const testing::TestParamInfo<std::string>& info) {
-                           std::string name = info.param.substr(0, info.param.size() - 5);
-                           return name;
+                           return info.param;
                          });
 
 }  // namespace

@@ -229,6 +229,14 @@ ObjectDef readShape(const Reader& shape, const std::string& folder) {
   }
 }
 
+// A collider's thickness and Coulomb coefficients; μ_s defaults to at least μ_k.
+void readSurface(const Reader& r, Real& thickness, Real& friction, Real& staticFriction) {
+  thickness = static_cast<Real>(r.number("thickness", thickness, 0, 10));
+  friction = static_cast<Real>(r.number("friction", friction, 0, 10));
+  staticFriction =
+      static_cast<Real>(r.number("static_friction", std::max(staticFriction, friction), 0, 10));
+}
+
 SceneObject readObject(const Reader& o, const std::string& folder) {
   o.allowOnly({"type", "name", "shape", "material", "pins", "velocity", "offset", "schedule"});
   SceneObject out;
@@ -329,11 +337,7 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     g.allowOnly({"height", "thickness", "friction", "static_friction"});
     scene.ground.enabled = true;
     scene.ground.height = static_cast<Real>(g.number("height", 0, -1e6, 1e6));
-    scene.ground.thickness =
-        static_cast<Real>(g.number("thickness", scene.ground.thickness, 0, 10));
-    scene.ground.friction = static_cast<Real>(g.number("friction", scene.ground.friction, 0, 10));
-    scene.ground.staticFriction = static_cast<Real>(g.number(
-        "static_friction", std::max(scene.ground.staticFriction, scene.ground.friction), 0, 10));
+    readSurface(g, scene.ground.thickness, scene.ground.friction, scene.ground.staticFriction);
   }
   if (top.has("spheres")) {
     if (!j.at("spheres").is_array()) top.fail("spheres", "expected a list of spheres");
@@ -343,10 +347,7 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
       SphereCollider sphere;
       sphere.center = r.vec3("center", sphere.center);
       sphere.radius = static_cast<Real>(r.number("radius", sphere.radius, 1e-6, 1e6));
-      sphere.thickness = static_cast<Real>(r.number("thickness", sphere.thickness, 0, 10));
-      sphere.friction = static_cast<Real>(r.number("friction", sphere.friction, 0, 10));
-      sphere.staticFriction = static_cast<Real>(
-          r.number("static_friction", std::max(sphere.staticFriction, sphere.friction), 0, 10));
+      readSurface(r, sphere.thickness, sphere.friction, sphere.staticFriction);
       scene.spheres.push_back(sphere);
     }
   }
@@ -359,10 +360,7 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
       plane.point = r.vec3("point", plane.point);
       plane.normal = r.vec3("normal", plane.normal);
       if (!(plane.normal.norm() > Real(1e-6))) r.fail(r.at("normal"), "normal must not be zero");
-      plane.thickness = static_cast<Real>(r.number("thickness", plane.thickness, 0, 10));
-      plane.friction = static_cast<Real>(r.number("friction", plane.friction, 0, 10));
-      plane.staticFriction = static_cast<Real>(
-          r.number("static_friction", std::max(plane.staticFriction, plane.friction), 0, 10));
+      readSurface(r, plane.thickness, plane.friction, plane.staticFriction);
       scene.planes.push_back(plane);
     }
   }

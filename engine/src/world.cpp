@@ -251,17 +251,23 @@ const GroundPlane& World::ground() const {
   return impl_->state.ground;
 }
 
+// Thickness and Coulomb coefficients every collider has.
+static void validateSurface(Real thickness, Real friction, Real staticFriction,
+                            const std::string& what) {
+  require(std::isfinite(thickness) && thickness >= 0,
+          what + " thickness must be finite and non-negative");
+  require(std::isfinite(friction) && friction >= 0 && std::isfinite(staticFriction) &&
+              staticFriction >= 0,
+          what + " friction must be finite and non-negative");
+}
+
 void World::addSphereCollider(const SphereCollider& sphere) {
   require(finite(sphere.center) && std::abs(sphere.center.maxCoeff()) < 1e9 &&
               std::abs(sphere.center.minCoeff()) < 1e9,
           "sphere centre must be finite");
   require(std::isfinite(sphere.radius) && sphere.radius > 0 && sphere.radius < 1e9,
           "sphere radius must be positive and finite");
-  require(std::isfinite(sphere.thickness) && sphere.thickness >= 0,
-          "sphere thickness must be finite and non-negative");
-  require(std::isfinite(sphere.friction) && sphere.friction >= 0 &&
-              std::isfinite(sphere.staticFriction) && sphere.staticFriction >= 0,
-          "sphere friction must be finite and non-negative");
+  validateSurface(sphere.thickness, sphere.friction, sphere.staticFriction, "sphere");
   impl_->state.spheres.push_back(sphere);
   rebuildColliders(impl_->state);
 }
@@ -271,11 +277,7 @@ void World::addPlaneCollider(const PlaneCollider& plane) {
   require(finite(plane.normal) && plane.normal.norm() > Real(1e-6) &&
               plane.normal.cwiseAbs().maxCoeff() < 1e9,
           "plane normal must be finite and not zero");
-  require(std::isfinite(plane.thickness) && plane.thickness >= 0,
-          "plane thickness must be finite and non-negative");
-  require(std::isfinite(plane.friction) && plane.friction >= 0 &&
-              std::isfinite(plane.staticFriction) && plane.staticFriction >= 0,
-          "plane friction must be finite and non-negative");
+  validateSurface(plane.thickness, plane.friction, plane.staticFriction, "plane");
   impl_->state.planes.push_back(plane);
   rebuildColliders(impl_->state);
 }
