@@ -6,15 +6,18 @@
 
 #include "systems/constraint_sweeps.h"
 #include "systems/particle_contacts.h"
+#include "systems/primitive_contacts.h"
 #include "systems/tether_sweep.h"
 
 namespace nucleon {
 namespace {
 
-double timedContacts(ContactPool& contacts, const ColliderPool& colliders, ParticlePool& particles,
+double timedContacts(ContactPool& contacts, const ColliderPool& colliders,
+                     PrimitiveContactPool& primitiveContacts, ParticlePool& particles,
                      SolverKind kind) {
   const auto start = std::chrono::steady_clock::now();
-  projectContacts(contacts, colliders, particles, kind);
+  if (contacts.size() > 0) projectContacts(contacts, colliders, particles, kind);
+  if (primitiveContacts.size() > 0) projectPrimitiveContacts(primitiveContacts, particles, kind);
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
@@ -53,8 +56,10 @@ void forFamilyPools(ConstraintFamily family, Pools& pools, F&& f) {
 }  // namespace
 
 double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const SweepPlan& plan,
-                        ContactPool& contacts, const ColliderPool& colliders, SolverKind kind,
-                        Real h, Real relaxation) {
+                        ContactPool& contacts, const ColliderPool& colliders,
+                        PrimitiveContactPool& primitiveContacts, SolverKind kind, Real h,
+                        Real relaxation) {
+  const bool anyContacts = contacts.size() > 0 || primitiveContacts.size() > 0;
   pools.forEach([](auto& pool) { std::fill(pool.lambda.begin(), pool.lambda.end(), Real(0)); });
   SweepContext context{particles, h, relaxation, nullptr};
   double contactSeconds = 0;
@@ -68,11 +73,11 @@ double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const S
       else
         solveSweep<Kernel>(kind, pool, context);
     });
-    if (op.endsRound && contacts.size() > 0)
-      contactSeconds += timedContacts(contacts, colliders, particles, kind);
+    if (op.endsRound && anyContacts)
+      contactSeconds += timedContacts(contacts, colliders, primitiveContacts, particles, kind);
   }
-  if (plan.ops.empty() && contacts.size() > 0)
-    contactSeconds += timedContacts(contacts, colliders, particles, kind);
+  if (plan.ops.empty() && anyContacts)
+    contactSeconds += timedContacts(contacts, colliders, primitiveContacts, particles, kind);
   return contactSeconds;
 }
 

@@ -7,18 +7,21 @@
 #include "components/constraint_pools.h"
 #include "components/contact_pool.h"
 #include "components/particles.h"
+#include "components/primitive_contact_pool.h"
 #include "components/sweep_plan.h"
 #include "nucleon/solver_settings.h"
 
 namespace nucleon {
 
 // Resets every multiplier (XPBD's λ lives for one substep) and runs plan.ops on particles.p,
-// projecting the contact pool after each round (and once when the plan has no sweeps), so that
-// resting contact is solved with the constraints and not after them. Returns the seconds spent
-// in contact projection, which the profile books as collisions.
+// projecting the collider contact pool and the primitive contact pool after each round (and once
+// when the plan has no sweeps), so that resting contact is solved with the constraints and not
+// after them. Returns the seconds spent in contact projection, which the profile books as
+// collisions.
 double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const SweepPlan& plan,
-                        ContactPool& contacts, const ColliderPool& colliders, SolverKind kind,
-                        Real h, Real relaxation);
+                        ContactPool& contacts, const ColliderPool& colliders,
+                        PrimitiveContactPool& primitiveContacts, SolverKind kind, Real h,
+                        Real relaxation);
 
 // Constraint projections one substep of `plan` performs (for throughput figures).
 std::uint64_t countProjections(const ConstraintPools& pools, const ParticlePool& particles,

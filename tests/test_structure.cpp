@@ -40,6 +40,13 @@ TEST(StepGraph, OrdersConflictingStagesAndRunsIndependentOnesSideBySide) {
   EXPECT_TRUE(hasEdge(graph, "predict", "solve"));
   EXPECT_TRUE(hasEdge(graph, "detect contacts", "solve"));
   EXPECT_TRUE(hasEdge(graph, "solve", "update"));
+  // The animation sets the animated colliders' velocities after the forces and before anything
+  // reads them, and puts the colliders on their track once update has moved them.
+  EXPECT_TRUE(hasEdge(graph, "forces", "animate"));
+  EXPECT_TRUE(hasEdge(graph, "animate", "predict"));
+  EXPECT_TRUE(hasEdge(graph, "animate", "detect contacts"));
+  EXPECT_FALSE(hasEdge(graph, "animate", "solve"));
+  EXPECT_TRUE(hasEdge(graph, "update", "finish animation"));
   // Every edge goes forwards (declaration order is a topological order: no cycles).
   for (const auto& [from, to] : graph.edges()) EXPECT_LT(from, to);
 }

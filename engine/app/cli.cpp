@@ -1,5 +1,6 @@
 #include "engine/app/cli.h"
 #include "engine/app/bench_command.h"
+#include "engine/app/ccd_command.h"
 #include "engine/app/cli_args.h"
 
 #include <unistd.h>
@@ -40,6 +41,7 @@ const char* kUsage =
     "       nucleon bench SCENE|NAME ... [--threads 1,2,..] [--solver a,b] [--iterations K]\n"
     "                              [--steps N] [--warmup W] [--repeats R] [--csv FILE]\n"
     "       nucleon scenes\n"
+    "       nucleon ccd QUERIES.txt [--answers FILE] [--thickness D]\n"
     "       nucleon --help | nucleon CMD --help\n";
 
 const char* kRunHelp =
@@ -184,7 +186,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
     perFrame.push_back({{"frame", frame},
                         {"ms", seconds * 1e3},
                         {"max_strain", m.maxStrain},
-                        {"intersections", nullptr},
+                        {"intersections", m.intersections},
                         {"contacts", m.contacts}});
     if (!o.outDir.empty())
       for (std::size_t i = 0; i < world.objectCount(); ++i) {
@@ -250,7 +252,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
       {"max_compression", m.maxCompression},
       {"max_tether_violation", m.maxTetherViolation},
       {"strain_by_family", strainByFamily},
-      {"intersections", nullptr},
+      {"intersections", m.intersections},
       {"contacts", m.contacts},
       {"nan_count", nanCount},
       {"recoveries", recoveries.total()},
@@ -262,6 +264,30 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
       {"energy", energy},
       {"state_hash", hex16(world.stateHash())},
       {"per_frame", perFrame}};
+  {
+    // Where the step's time went (the engine's own profile, per step), and what the collision
+    // stages between primitives did over the run.
+    const StepProfile& profile = world.profile();
+    const double perStep = profile.steps > 0 ? 1e3 / double(profile.steps) : 0.0;
+    stats["profile_ms_per_step"] = {{"forces", profile.forces * perStep},
+                                    {"animate", profile.animate * perStep},
+                                    {"predict", profile.predict * perStep},
+                                    {"solve", profile.solve * perStep},
+                                    {"broad_phase", profile.broadPhase * perStep},
+                                    {"narrow_phase", profile.narrowPhase * perStep},
+                                    {"collisions", profile.collisions * perStep},
+                                    {"update", profile.update * perStep}};
+    const CollisionReport& c = world.collisionReport();
+    stats["collisions"] = {
+        {"candidate_pairs", c.candidatePairs},
+        {"contacts", c.contacts},
+        {"clamped_particles", c.clampedParticles},
+        {"crossings_stopped", c.crossings},
+        {"stopped_particles", c.stoppedParticles},
+        {"unresolved_pairs", c.unresolvedPairs},
+        {"first_crossing_step",
+         c.firstCrossingStep > 0 ? nlohmann::json(c.firstCrossingStep) : nlohmann::json()}};
+  }
   if (!o.statsFile.empty()) {
     std::ofstream file(o.statsFile);
     file << stats.dump(2) << '\n';
@@ -325,6 +351,10 @@ int runCommandLine(const std::vector<std::string>& args, std::ostream& out, std:
     if (command == "bench") {
       if (help) return out << kBenchHelp, 0;
       return runBench(args, out, err);
+    }
+    if (command == "ccd") {
+      if (help) return out << kCcdHelp, 0;
+      return runCcd(args, out, err);
     }
     if (command == "scenes") {
       if (help) return out << "nucleon scenes: lists the bundled scenes, one line each\n", 0;

@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <set>
 #include <sstream>
 
@@ -77,6 +78,14 @@ class Reader {
     return out;
   }
 
+  Vec3d vec3d(const char* key, const Vec3d& fallback) const {
+    if (!has(key)) return fallback;
+    const Json& v = j_.at(key);
+    if (!v.is_array() || v.size() != 3) fail(at(key), "expected [x, y, z]");
+    Vec3d out;
+    for (int k = 0; k < 3; ++k) out[k] = checkNumber(v[k], at(key), -1e9, 1e9);
+    return out;
+  }
   Vec3 toVec3(const Json& v, const std::string& where) const {
     if (!v.is_array() || v.size() != 3) fail(where, "expected [x, y, z]");
     Vec3 out;
@@ -131,6 +140,7 @@ class Reader {
     throw SceneError(label_ + ": " + (where.empty() ? "" : where + ": ") + message);
   }
   std::string at(const char* key) const { return where_.empty() ? key : where_ + "." + key; }
+  const std::string& label() const { return label_; }
 
  private:
   double checkNumber(const Json& v, const std::string& where, double lo, double hi) const {
@@ -237,8 +247,73 @@ void readSurface(const Reader& r, Real& thickness, Real& friction, Real& staticF
       static_cast<Real>(r.number("static_friction", std::max(staticFriction, friction), 0, 10));
 }
 
+// A direction given as a vector of any non-zero length.
+Vec3d readDirection(const Reader& r, const char* key, const Vec3d& fallback) {
+  const Vec3d v = r.vec3d(key, fallback);
+  if (!(v.norm() > 1e-12)) r.fail(r.at(key), "must not be zero");
+  return v;
+}
+
+// "motion": {"pivot", "keyframes": [{"time", "translation", "axis", "degrees"}, ...], "loop",
+// "bend": {"axis", "along", "degrees_per_meter", "frequency"}}. The checks the world makes again
+// are made here too, so that the error names the JSON path.
+ColliderMotion readMotion(const Reader& m) {
+  m.allowOnly({"pivot", "keyframes", "loop", "bend"});
+  ColliderMotion out;
+  out.pivot = m.vec3d("pivot", out.pivot);
+  if (m.has("keyframes")) {
+    const Json& list = m.raw("keyframes");
+    if (!list.is_array() || list.empty()) m.fail(m.at("keyframes"), "expected a list of keyframes");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const Reader k(list[i], m.at("keyframes") + "[" + std::to_string(i) + "]", m.label());
+      k.allowOnly({"time", "translation", "axis", "degrees"});
+      if (!k.has("time")) k.fail("missing 'time'");
+      Keyframe f;
+      f.time = k.number("time", 0, -1e9, 1e9);
+      f.translation = k.vec3d("translation", f.translation);
+      f.axis = readDirection(k, "axis", f.axis);
+      f.angle = k.number("degrees", 0, -1e6, 1e6) * std::numbers::pi / 180;
+      if (!out.keyframes.empty()) {
+        const Keyframe& e = out.keyframes.back();
+        if (!(f.time > e.time)) {
+          std::ostringstream message;
+          message << "must be later than the previous keyframe's time " << e.time << ", got "
+                  << f.time;
+          k.fail(k.at("time"), message.str());
+        }
+        const Eigen::Quaterniond a(Eigen::AngleAxisd(e.angle, e.axis.normalized()));
+        const Eigen::Quaterniond b(Eigen::AngleAxisd(f.angle, f.axis.normalized()));
+        if (!(std::abs(a.dot(b)) > 1e-6))
+          k.fail(
+              "half a turn from the previous keyframe: the way round is ambiguous; add a "
+              "keyframe between");
+      }
+      out.keyframes.push_back(f);
+    }
+  }
+  out.loop = m.boolean("loop", false);
+  if (out.loop && out.keyframes.size() < 2)
+    m.fail(m.at("loop"), "a looping motion needs at least two keyframes");
+  if (m.has("bend")) {
+    const Reader b = m.child("bend");
+    b.allowOnly({"axis", "along", "degrees_per_meter", "frequency"});
+    BendMotion& bend = out.bend;
+    bend.axis = readDirection(b, "axis", bend.axis);
+    bend.along = readDirection(b, "along", bend.along);
+    if (std::abs(bend.axis.normalized().dot(bend.along.normalized())) >= 1e-6)
+      b.fail(b.at("along"), "must be perpendicular to 'axis'");
+    if (!b.has("degrees_per_meter")) b.fail("missing 'degrees_per_meter'");
+    if (!b.has("frequency")) b.fail("missing 'frequency'");
+    bend.curvature = b.number("degrees_per_meter", 0, -1e6, 1e6) * std::numbers::pi / 180;
+    bend.frequency = b.number("frequency", 0, 1e-9, 1e6);
+  }
+  if (!out.animated()) m.fail("give keyframes or a bend with non-zero degrees_per_meter");
+  return out;
+}
+
 SceneObject readObject(const Reader& o, const std::string& folder) {
-  o.allowOnly({"type", "name", "shape", "material", "pins", "velocity", "offset", "schedule"});
+  o.allowOnly(
+      {"type", "name", "shape", "material", "pins", "velocity", "offset", "schedule", "motion"});
   SceneObject out;
   const std::string type = o.string("type", "");
   if (type == "cloth")
@@ -259,6 +334,13 @@ SceneObject readObject(const Reader& o, const std::string& folder) {
   const Vec3 offset = o.vec3("offset", Vec3::Zero());
   for (Vec3& v : out.def.vertices) v += offset;
   out.def.velocity = o.vec3("velocity", Vec3::Zero());
+  if (o.has("motion")) {
+    if (out.kind != ObjectKind::Collider)
+      o.fail(o.at("motion"), "only colliders can have a motion");
+    if (o.has("velocity"))
+      o.fail(o.at("velocity"), "a collider with a motion takes no velocity (the motion sets it)");
+    out.def.motion = readMotion(o.child("motion"));
+  }
   if (o.has("material")) {
     const Reader m = o.child("material");
     m.allowOnly({"mass", "stretch_compliance", "compression_compliance", "bend_compliance",

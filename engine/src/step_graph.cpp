@@ -4,24 +4,46 @@
 
 #include "engine/src/world_state.h"
 #include "systems/integrate.h"
+#include "systems/kinematic_motion.h"
+#include "systems/broad_phase.h"
 #include "systems/particle_contacts.h"
+#include "systems/primitive_contacts.h"
 #include "systems/solve_constraints.h"
 
 namespace nucleon {
 namespace {
 
-enum Stage { kForces, kPredict, kDetectContacts, kSolve, kUpdate, kStageCount };
+enum Stage {
+  kForces,
+  kAnimate,
+  kPredict,
+  kDetectContacts,
+  kDetectCollisions,
+  kSolve,
+  kUpdate,
+  kFinishAnimation,
+  kStageCount
+};
 
 // Declaration order is execution order wherever two stages conflict.
 constexpr std::array<StageDeclaration, kStageCount> kStages = {{
     {"forces", kVelocities | kInverseMass, kVelocities | kStageProfile},
+    // Also reads the animated particles' rest positions, which nothing changes during a step.
+    {"animate", kPositions | kAnimation, kVelocities | kAnimation | kStageProfile},
     {"predict", kPositions | kVelocities, kPredicted | kStageProfile},
     {"detect contacts", kPositions | kVelocities | kInverseMass | kColliders,
      kContacts | kStageProfile},
-    {"solve", kPositions | kInverseMass | kColliders | kSweepPlan,
-     kPredicted | kConstraints | kContacts | kRecoveries | kStageProfile},
-    {"update", kPositions | kVelocities | kPredicted,
+    // Broad phase over the predicted motion, then the primitive contacts of its pairs.
+    {"detect collisions", kPositions | kVelocities | kPredicted | kInverseMass | kPrimitives,
+     kCandidates | kPrimitiveContacts | kStageProfile},
+    // Also the primitive contacts' friction and the crossing fail-safe after the sweeps.
+    {"solve", kPositions | kInverseMass | kColliders | kSweepPlan | kPrimitives | kCandidates,
+     kPredicted | kConstraints | kContacts | kPrimitiveContacts | kRecoveries | kStageProfile},
+    // Also restitution of the primitive contacts, after the velocity update.
+    {"update", kPositions | kVelocities | kPredicted | kPrimitiveContacts,
      kPositions | kVelocities | kPredicted | kRecoveries | kStageProfile},
+    // Shares `animate`'s profile entry; the two are ordered through update.
+    {"finish animation", kAnimation, kPositions | kPredicted | kStageProfile},
 }};
 
 template <typename F>
@@ -69,6 +91,13 @@ void StepGraph::runStage(int stage) {
     case kForces:
       profile.forces += timed([&] { applyForces(s.particles, s.gravity, h_); });
       break;
+    case kAnimate:
+      if (s.kinematics.empty()) break;
+      profile.animate += timed([&] {
+        animateKinematics(s.kinematics, s.particles, s.substep, s.solver.substeps, s.substepEnd,
+                          h_);
+      });
+      break;
     case kPredict:
       profile.predict += timed([&] { predictPositions(s.particles, h_); });
       break;
@@ -80,16 +109,47 @@ void StepGraph::runStage(int stage) {
       profile.collisions +=
           timed([&] { detectContacts(s.contacts, s.colliders, s.particles, h_); });
       break;
+    case kDetectCollisions: {
+      CollisionReport& report = s.collisionReport;
+      if (s.primitives.total() == 0) {  // nothing collides: no pairs, nothing to time
+        s.candidates.clear();
+        s.primitiveContacts.resize(0);
+        break;
+      }
+      profile.broadPhase += timed([&] {
+        findCandidatePairs(s.candidates, s.bvh, s.primitives, s.particles.x, s.particles.p,
+                           s.particles.w, kPrimitiveContactMargin);
+      });
+      profile.narrowPhase += timed(
+          [&] { detectPrimitiveContacts(s.primitiveContacts, s.candidates, s.primitives, s.particles); });
+      report.candidatePairs += s.candidates.size();
+      report.contacts += s.primitiveContacts.size();
+      break;
+    }
     case kSolve: {
       double contactSeconds = 0;
       std::size_t missed = 0;
+      CrossingReport crossing;
       profile.solve += timed([&] {
-        contactSeconds = solveConstraints(s.constraints, s.particles, s.plan, s.contacts,
-                                          s.colliders, s.solver.kind, h_, s.solver.relaxation);
+        contactSeconds =
+            solveConstraints(s.constraints, s.particles, s.plan, s.contacts, s.colliders,
+                             s.primitiveContacts, s.solver.kind, h_, s.solver.relaxation);
         if (s.colliders.size() > 0)
           contactSeconds +=
               timed([&] { missed = resolveMissedContacts(s.contacts, s.colliders, s.particles); });
+        if (s.primitives.total() > 0)
+          contactSeconds += timed([&] {
+            applyPrimitiveFriction(s.primitiveContacts, s.particles, s.solver.kind);
+            crossing = resolveCrossings(s.primitiveContacts, s.candidates, s.primitives,
+                                        s.particles, kPrimitiveContactMargin);
+          });
       });
+      CollisionReport& report = s.collisionReport;
+      report.clampedParticles += crossing.clamped;
+      report.crossings += crossing.crossings;
+      report.stoppedParticles += crossing.stopped;
+      report.unresolvedPairs += crossing.unresolved;
+      if (crossing.crossings > 0 && report.firstCrossingStep == 0) report.firstCrossingStep = step_;
       // Contacts are projected between sweep rounds: book them as collisions.
       profile.solve -= contactSeconds;
       profile.collisions += contactSeconds;
@@ -101,9 +161,15 @@ void StepGraph::runStage(int stage) {
     case kUpdate: {
       std::size_t bad = 0;
       profile.update += timed([&] { bad = updateState(s.particles, h_); });
+      if (s.primitiveContacts.size() > 0)
+        profile.collisions += timed([&] { applyRestitution(s.primitiveContacts, s.particles); });
       logRepairs(s.recoveries, bad, s.recoveries.nonFinite, step_);
       break;
     }
+    case kFinishAnimation:
+      if (s.kinematics.empty()) break;
+      profile.animate += timed([&] { finishKinematics(s.kinematics, s.particles); });
+      break;
     default:
       break;
   }

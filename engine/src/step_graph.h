@@ -1,9 +1,9 @@
 // The substep as a oneTBB flow graph of systems, built from what each system reads and writes.
 //
-//   forces ──┬──► predict ─────────┬──► solve ──► update
-//            │   (p = x + h v)     │   (sweeps of the plan; contact pool projected after each
-//            └──► detect contacts ─┘    round; missed contacts repaired)
-//                (contact pool from x, v)
+//   forces ──► animate ──┬──► predict ─────────┬──► solve ──► update ──► finish animation
+//              (v of the  │   (p = x + h v)     │   (sweeps of the plan;    (animated colliders'
+//              animated   └──► detect contacts ─┘    contacts projected      x, p ← their
+//              colliders)     (contact pool from x, v)  after each round)   substep targets)
 //
 // Every stage declares the pools it reads and writes (kStages in step_graph.cpp); the
 // constructor adds an edge from an earlier stage to a later one wherever the two conflict (one
@@ -38,6 +38,10 @@ enum PoolAccess : std::uint32_t {
   kRecoveries = 1u << 7,    // the repair counters
   kSweepPlan = 1u << 8,     // the sweep plan
   kStageProfile = 1u << 9,  // a stage's own profile entry (each stage has its own, no conflict)
+  kAnimation = 1u << 10,    // the kinematic tracks, their substep targets and the world's clock
+  kPrimitives = 1u << 11,   // the collision primitive lists (static)
+  kCandidates = 1u << 12,   // the broad phase's BVH and candidate pairs (per substep)
+  kPrimitiveContacts = 1u << 13,  // the primitive contact pool and the collision report
 };
 
 struct StageDeclaration {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -11,10 +12,13 @@
 #include "engine/src/step_graph.h"
 #include "engine/src/world_state.h"
 #include "systems/build_constraints.h"
+#include "systems/collision_primitives_build.h"
 #include "systems/derived_tables.h"
+#include "systems/kinematic_motion.h"
 #include "systems/measures.h"
 #include "systems/particle_contacts.h"
 #include "systems/sweep_schedule.h"
+#include "systems/triangle_intersections.h"
 
 namespace nucleon {
 
@@ -52,13 +56,93 @@ void validateCommon(const ObjectDef& def, const std::string& what) {
   require(std::isfinite(m.damping) && m.damping >= 0,
           what + ": damping must be finite and non-negative");
   validateSchedule(def.schedule, what + " schedule");
-  require(std::isfinite(m.thickness) && m.thickness >= 0,
+  require(std::isfinite(m.thickness) && m.thickness >= 0 && m.thickness < 1e3,
           what + ": thickness must be finite and non-negative");
+  require(std::isfinite(m.friction) && m.friction >= 0 && std::isfinite(m.staticFriction) &&
+              m.staticFriction >= 0,
+          what + ": friction must be finite and non-negative");
+  require(std::isfinite(m.restitution) && m.restitution >= 0 && m.restitution <= 1,
+          what + ": restitution must be in [0, 1]");
+  require(std::isfinite(m.stickiness) && m.stickiness >= 0 && m.stickiness < 1e3,
+          what + ": stickiness must be finite and non-negative");
   require(finite(def.velocity), what + ": velocity must be finite");
   for (Index pin : def.pins)
     require(pin < def.vertices.size(), what + ": pin " + std::to_string(pin) +
                                            " is out of range (the object has " +
                                            std::to_string(def.vertices.size()) + " vertices)");
+}
+
+// A unit axis, or a zero vector if `axis` has no usable direction.
+Vec3d direction(const Vec3d& axis) {
+  const double length = axis.norm();
+  return length > 1e-12 && std::isfinite(length) ? Vec3d(axis / length) : Vec3d::Zero();
+}
+
+void validateMotion(const ObjectDef& def, ObjectKind kind, const std::string& what) {
+  const ColliderMotion& m = def.motion;
+  if (!m.animated()) return;
+  require(kind == ObjectKind::Collider, what + ": only colliders can have a motion");
+  require(def.velocity == Vec3::Zero(),
+          what + ": a collider with a motion takes no velocity (the motion sets it)");
+  require(m.pivot.allFinite(), what + ": motion pivot must be finite");
+  require(!m.loop || m.keyframes.size() >= 2, what + ": a looping motion needs two keyframes");
+  for (std::size_t k = 0; k < m.keyframes.size(); ++k) {
+    const Keyframe& f = m.keyframes[k];
+    const std::string key = what + ": keyframe " + std::to_string(k);
+    require(std::isfinite(f.time), key + " time must be finite");
+    require(f.translation.allFinite(), key + " translation must be finite");
+    require(std::isfinite(f.angle), key + " angle must be finite");
+    require(f.axis.allFinite() && direction(f.axis) != Vec3d::Zero(),
+            key + " axis must be finite and not zero");
+    if (k == 0) continue;
+    const Keyframe& e = m.keyframes[k - 1];
+    if (!(f.time > e.time)) {
+      std::ostringstream message;
+      message << key << " time " << f.time << " must be later than keyframe " << k - 1 << "'s time "
+              << e.time;
+      throw std::invalid_argument(message.str());
+    }
+    // Slerp takes the shorter way round; at half a turn both ways are equally short.
+    const Eigen::Quaterniond a(Eigen::AngleAxisd(e.angle, direction(e.axis)));
+    const Eigen::Quaterniond b(Eigen::AngleAxisd(f.angle, direction(f.axis)));
+    require(std::abs(a.dot(b)) > 1e-6, key + " is half a turn from keyframe " +
+                                           std::to_string(k - 1) +
+                                           ": the way round is ambiguous; add a keyframe between");
+  }
+  const BendMotion& bend = m.bend;
+  if (bend.curvature == 0) return;
+  require(std::isfinite(bend.curvature), what + ": bend curvature must be finite");
+  require(std::isfinite(bend.frequency) && bend.frequency > 0,
+          what + ": bend frequency must be positive and finite");
+  const Vec3d axis = bend.axis.allFinite() ? direction(bend.axis) : Vec3d::Zero();
+  const Vec3d along = bend.along.allFinite() ? direction(bend.along) : Vec3d::Zero();
+  require(axis != Vec3d::Zero() && along != Vec3d::Zero(),
+          what + ": bend axis and along must be finite and not zero");
+  require(std::abs(axis.dot(along)) < 1e-6, what + ": bend axis and along must be perpendicular");
+}
+
+KinematicTrack makeTrack(const ColliderMotion& m, Index object, Index first, Index count) {
+  KinematicTrack track;
+  track.object = object;
+  track.firstParticle = first;
+  track.particleCount = count;
+  track.pivot = m.pivot;
+  for (const Keyframe& f : m.keyframes) {
+    track.times.push_back(f.time);
+    track.translations.push_back(f.translation);
+    track.rotations.emplace_back(Eigen::AngleAxisd(f.angle, direction(f.axis)));
+  }
+  track.loop = m.loop;
+  track.bend = m.bend;
+  track.bend.axis = direction(m.bend.axis);
+  track.bend.along = direction(m.bend.along);
+  return track;
+}
+
+void appendTrack(KinematicTracks& kinematics, KinematicTrack track) {
+  track.firstTarget = static_cast<Index>(kinematics.target.size());
+  kinematics.target.resize(kinematics.target.size() + track.particleCount, Vec3::Zero());
+  kinematics.tracks.push_back(std::move(track));
 }
 
 // Lumped mass: each top simplex gives its measure (length, area, volume) equally to its vertices.
@@ -133,6 +217,7 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
       std::string(toString(kind)) + " '" +
       (def.name.empty() ? "object" + std::to_string(s.objects.size()) : def.name) + "'";
   validateCommon(def, what);
+  validateMotion(def, kind, what);
   const std::size_t n = def.vertices.size();
 
   ObjectRecord record;
@@ -197,6 +282,13 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
   for (Index pin : def.pins) {
     particles.w[first + pin] = 0;
     particles.v[first + pin].setZero();
+  }
+  if (def.motion.animated()) {  // starts where its motion is now, so the first substep is smooth
+    KinematicTrack track =
+        makeTrack(def.motion, static_cast<Index>(s.objects.size()), first, static_cast<Index>(n));
+    posePositions(track, std::span<const Vec3>(particles.restPosition).subspan(first, n), s.time,
+                  std::span<Vec3>(particles.x).subspan(first, n));
+    appendTrack(s.kinematics, std::move(track));
   }
   particles.p.assign(particles.x.begin(), particles.x.end());
   record.firstParticle = first;
@@ -322,6 +414,7 @@ void World::step(double dt) {
   WorldState& s = impl.state;
   if (s.topologyDirty) {  // derived tables, rebuilt outside the step so a step never allocates
     buildDerivedTables(s.constraints, s.particles, s.solver.kind);
+    buildCollisionPrimitives(s.primitives, s.objects, s.excludedObjectPairs);
     s.plan = buildSweepPlan(s.solver, s.objects, s.constraints, s.particles);
     s.topologyDirty = false;
   }
@@ -335,10 +428,23 @@ void World::step(double dt) {
     if (!impl.graph) impl.graph = std::make_unique<StepGraph>(impl.state);
     const Real h = static_cast<Real>(dt / impl.state.solver.substeps);
     ++impl.state.stepCount;
-    for (int i = 0; i < impl.state.solver.substeps; ++i)
+    const int substeps = impl.state.solver.substeps;
+    const double stepStart = impl.state.time;
+    for (int i = 0; i < substeps; ++i) {
+      // From the step's start rather than summed substep by substep, so that the step ends
+      // exactly at start + dt.
+      impl.state.substep = i;
+      impl.state.substepEnd =
+          i + 1 == substeps ? stepStart + dt : stepStart + dt * (i + 1) / substeps;
       impl.graph->runSubstep(h, impl.state.stepCount);
+      impl.state.time = impl.state.substepEnd;
+    }
   });
   ++impl.state.profile.steps;
+}
+
+double World::time() const {
+  return impl_->state.time;
 }
 
 std::size_t World::particleCount() const {
@@ -362,6 +468,37 @@ static const ObjectRecord& lookup(const World::Impl& impl, ObjectId id) {
       impl.state.objects[id.index1 - 1].generation != id.generation)
     throw std::invalid_argument("invalid object id");
   return impl.state.objects[id.index1 - 1];
+}
+
+void World::setColliderTargets(ObjectId id, std::span<const Vec3> positions) {
+  const ObjectRecord& o = lookup(*impl_, id);
+  const std::string what = std::string(toString(o.kind)) + " '" + o.name + "'";
+  require(o.kind == ObjectKind::Collider, "setColliderTargets: " + what + " is not a collider");
+  require(positions.size() == o.particleCount,
+          "setColliderTargets: " + what + " has " + std::to_string(o.particleCount) +
+              " vertices, got " + std::to_string(positions.size()) + " positions");
+  for (std::size_t i = 0; i < positions.size(); ++i)
+    require(finite(positions[i]) && positions[i].cwiseAbs().maxCoeff() < 1e9,
+            "setColliderTargets: " + what + ": position " + std::to_string(i) + " is not finite");
+  KinematicTracks& kinematics = impl_->state.kinematics;
+  const Index object = id.index1 - 1;
+  auto track = std::find_if(kinematics.tracks.begin(), kinematics.tracks.end(),
+                            [&](const KinematicTrack& t) { return t.object == object; });
+  if (track == kinematics.tracks.end()) {
+    KinematicTrack driven;
+    driven.object = object;
+    driven.firstParticle = o.firstParticle;
+    driven.particleCount = o.particleCount;
+    driven.drivenByTargets = true;
+    driven.goal.resize(o.particleCount);
+    driven.stepStart.resize(o.particleCount);
+    appendTrack(kinematics, std::move(driven));
+    track = kinematics.tracks.end() - 1;
+  }
+  require(track->drivenByTargets,
+          "setColliderTargets: " + what + " is animated by its motion and takes no targets");
+  std::copy(positions.begin(), positions.end(), track->goal.begin());
+  track->targetsPending = true;
 }
 
 std::span<const Vec3> World::positions(ObjectId id) const {
@@ -426,11 +563,30 @@ Measures World::measure() const {
   m.volumeRatio = rest != 0 ? now / rest : -1.0;
   // Touching: within 1 mm of a contact surface.
   m.contacts = countTouchingParticles(s.colliders, s.particles, Real(1e-3));
+  // Every object's surface in global particle indices, all objects together: pairs within one
+  // object (self-intersection) and across objects count alike.
+  std::vector<std::array<Index, 3>> surfaces;
+  for (const ObjectRecord& o : s.objects)
+    for (const auto& t : o.surface)
+      surfaces.push_back({o.firstParticle + t[0], o.firstParticle + t[1], o.firstParticle + t[2]});
+  auto countIntersections = [&] { return countTriangleIntersections(surfaces, s.particles.x); };
+  m.intersections = impl_->arena ? impl_->arena->execute(countIntersections) : countIntersections();
   return m;
 }
 
 const Recoveries& World::recoveries() const {
   return impl_->state.recoveries;
+}
+
+const CollisionReport& World::collisionReport() const {
+  return impl_->state.collisionReport;
+}
+
+void World::excludeCollisions(ObjectId a, ObjectId b) {
+  lookup(*impl_, a), lookup(*impl_, b);  // both must be valid
+  impl_->state.excludedObjectPairs.push_back(
+      CollisionPrimitives::pairKey(a.index1 - 1, b.index1 - 1));
+  impl_->state.topologyDirty = true;
 }
 
 const StepProfile& World::profile() const {

@@ -10,7 +10,12 @@
 
 #include "components/collider_pool.h"
 #include "components/constraint_pools.h"
+#include "components/candidate_pairs.h"
+#include "components/collision_primitives.h"
 #include "components/contact_pool.h"
+#include "components/primitive_bvh.h"
+#include "components/primitive_contact_pool.h"
+#include "components/kinematic_tracks.h"
 #include "components/objects.h"
 #include "components/particles.h"
 #include "components/sweep_plan.h"
@@ -33,10 +38,25 @@ struct WorldState {
   ColliderPool colliders;       // static lifetime: rebuilt when a collider is added or changed
   ContactPool contacts;         // per-substep lifetime: refilled by contact detection every substep
   SweepPlan plan;               // from solver.schedule and the objects' schedules
+  // Collisions between primitives (ARCHITECTURE.md §5): the primitive lists (static, rebuilt with
+  // the derived tables), the object pairs the API excluded, the broad phase's BVH and candidate
+  // pairs and the primitive contacts (per substep), and what the collision stages did.
+  CollisionPrimitives primitives;
+  std::vector<std::uint64_t> excludedObjectPairs;
+  PrimitiveBvh bvh;
+  CandidatePairs candidates;
+  PrimitiveContactPool primitiveContacts;
+  CollisionReport collisionReport;
+  KinematicTracks kinematics;   // static lifetime: one track per animated collider
   bool topologyDirty = true;    // incidence, coloring and plan need rebuilding
   Recoveries recoveries;        // repairs since creation
   std::uint64_t stepCount = 0;  // steps taken since creation
-  StepProfile profile;          // the engine's own per-stage timing
+  // Simulated seconds since creation, advanced after every substep; animations are functions of
+  // it. The substep being run is `substep` (from 0) of its step, ending at `substepEnd`.
+  double time = 0;
+  int substep = 0;
+  double substepEnd = 0;
+  StepProfile profile;  // the engine's own per-stage timing
 };
 
 struct World::Impl {

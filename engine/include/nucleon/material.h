@@ -39,8 +39,29 @@ struct Material {
   Real damping = 0;
   // Volume constraints of a solid's tetrahedra (m³/N); 0 keeps every tet's volume.
   Real volumeCompliance = 0;
-  // Collision thickness in m: radius of points and edges, half-width of triangle slabs.
+  // Collision thickness in m: radius of points and edges, half-width of triangle slabs. Two
+  // primitives keep (their radii summed) apart. 0 is legal: the primitives may touch but never
+  // pass through each other. Within one object, pairs of primitives closer than that in the rest
+  // shape get no contact (the mesh itself holds them apart), so a cloth's thickness should stay
+  // below half its edge length for layers of it to keep their distance.
   Real thickness = Real(0.01);
+  // Which primitives of the object collide (as nCloth's collision flags): its vertices (as
+  // spheres), its edges (capsules) and its faces (slabs). Points with no edge always collide as
+  // points when `collideVertices` is set.
+  bool collideVertices = true;
+  bool collideEdges = true;
+  bool collideFaces = true;
+  // Collisions of the object with itself (cloth folding onto itself, a rope coiling).
+  bool selfCollision = true;
+  // Coulomb friction of primitive contacts (μ_k sliding, μ_s sticking); a pair uses the mean of
+  // its two objects' coefficients.
+  Real friction = Real(0.3);
+  Real staticFriction = Real(0.4);
+  // Restitution of impacts in [0, 1]: 0 inelastic, 1 elastic; a pair uses the larger value.
+  Real restitution = 0;
+  // Stickiness (m): primitives in contact that separate by less than this are pulled back to
+  // the contact distance, so the object clings (0 = none); a pair uses the larger value.
+  Real stickiness = 0;
 };
 
 }  // namespace nucleon

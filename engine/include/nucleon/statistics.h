@@ -9,12 +9,19 @@ namespace nucleon {
 // Wall-clock seconds each stage of step() has taken since the world was created or the profile
 // was last reset (the engine's own profile). `solve` excludes the contact projections, which are
 // `collisions` (with contact detection); `projections` counts constraint projections in the solve
-// stage.
+// stage; `animate` is the animated colliders' two stages (posing them before predict, placing
+// them on their track after update); `broadPhase` and `narrowPhase` are the collision detection
+// between primitives (BVH and candidate pairs; primitive contacts), while `collisions` holds
+// collider contacts, the projection of every contact, friction, the crossing fail-safe and
+// restitution.
 struct StepProfile {
   double forces = 0;
+  double animate = 0;
   double predict = 0;
   double solve = 0;
   double collisions = 0;
+  double broadPhase = 0;
+  double narrowPhase = 0;
   double update = 0;
   std::uint64_t steps = 0;
   std::uint64_t substeps = 0;
@@ -33,6 +40,19 @@ struct Recoveries {
   std::uint64_t missedContacts = 0;
   std::uint64_t firstStep = 0;  // 1-based step of the first repair; 0 if there was none
   std::uint64_t total() const { return nonFinite + missedContacts; }
+};
+
+// What the collision stages did since the world was created: pairs and contacts summed over
+// substeps, the displacement bound and the crossing fail-safe's work (ARCHITECTURE.md §5)
+// (their time is StepProfile's broadPhase, narrowPhase and collisions).
+struct CollisionReport {
+  std::uint64_t candidatePairs = 0;    // broad-phase pairs, summed over substeps
+  std::uint64_t contacts = 0;          // primitive contacts made, summed over substeps
+  std::uint64_t clampedParticles = 0;  // particles held within their broad-phase bounds
+  std::uint64_t crossings = 0;         // crossing pairs the fail-safe stopped
+  std::uint64_t stoppedParticles = 0;  // particle positions the fail-safe reset
+  std::uint64_t unresolvedPairs = 0;   // pairs still crossing at the fail-safe's round limit
+  std::uint64_t firstCrossingStep = 0; // 1-based step of the first fail-safe action; 0 if none
 };
 
 // Quality measures of the current state (ARCHITECTURE.md §6).
@@ -56,6 +76,10 @@ struct Measures {
   double minHeight = 0;        // lowest particle coordinate along −gravity (y if gravity is 0)
   double volumeRatio = -1;     // current / rest volume of closed objects; −1 if there are none
   std::size_t contacts = 0;    // particles touching the ground plane or a sphere collider
+  // Pairs of surface triangles (cloth, solid boundary and collider triangles, of all objects
+  // together) that share no vertex and intersect, touching included; decided exactly
+  // (systems/triangle_intersections.h). A state free of interpenetration has 0.
+  std::size_t intersections = 0;
 };
 
 }  // namespace nucleon

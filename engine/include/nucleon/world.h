@@ -44,7 +44,16 @@ class World {
   ObjectId addSolid(const ObjectDef& def);      // tets; stretch on every edge
   ObjectId addParticles(const ObjectDef& def);  // points only
   ObjectId addCollider(const ObjectDef& def);   // triangles; static or kinematic (never moved by
-                                                // the solver; moves with def.velocity)
+                                                // the solver; moves with def.velocity or is
+                                                // animated by def.motion)
+
+  // The positions (one per vertex of the collider, in its vertex order) a collider reaches at the
+  // end of the next step; it moves to them in a straight line, evenly over the step's substeps,
+  // and then holds still until it is given new targets. For colliders driven from outside
+  // (animation data, another program); it replaces the collider's constant velocity. Throws
+  // std::invalid_argument for an id that is not a collider, a collider animated by a motion, a
+  // count other than the collider's vertex count or a non-finite position.
+  void setColliderTargets(ObjectId id, std::span<const Vec3> positions);
 
   void setGravity(const Vec3& g);
   Vec3 gravity() const;
@@ -68,6 +77,8 @@ class World {
   // Advances by dt seconds in solver().substeps substeps. dt must be finite and in (0, 1] s;
   // anything else throws std::invalid_argument and leaves the state untouched.
   void step(double dt);
+  // Simulated seconds since the world was created: the time motions' keyframes refer to.
+  double time() const;
 
   std::size_t particleCount() const;
   std::size_t objectCount() const;
@@ -91,6 +102,12 @@ class World {
   // Repairs the steps have made since the world was created (non-finite resets, particles pushed
   // out of colliders they should never have entered): zero in a healthy run.
   const Recoveries& recoveries() const;
+  // Collisions between objects' primitives (vertices, edges, faces; every object collides with
+  // every other and with itself unless its material or excludeCollisions says otherwise): what
+  // the collision stages did since the world was created.
+  const CollisionReport& collisionReport() const;
+  // The two objects (the same one twice: its self-collision) never collide with each other.
+  void excludeCollisions(ObjectId a, ObjectId b);
   const StepProfile& profile() const;
   void resetProfile();
   // 64-bit FNV-1a hash of every particle's position and velocity bytes.

@@ -1,0 +1,77 @@
+// The collision geometry of every object as primitive lists, in structure of arrays: points are
+// spheres, edges capsules and triangles slabs, each with the radius (half-width) of its object's
+// collision thickness. Static lifetime: built with the derived tables when the topology changes;
+// the positions are read from the particle pool (x at the start of a substep, p at its end).
+//
+// Which primitives an object contributes follows its collision flags (vertices, edges, faces, as
+// in the original's nCloth settings) and its kind: cloth gives its vertices, edges and triangles;
+// a rope its vertices and edges; a solid the vertices, edges and triangles of its boundary; a
+// particle object its points; a collider mesh its vertices, edges and triangles. A point no edge
+// of its object uses is `isolated`: only isolated points need point–edge and point–point pairs,
+// since the edges and faces of every other point already carry its contacts.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "nucleon/types.h"
+
+namespace nucleon {
+
+enum CollisionFlags : std::uint8_t {
+  kCollideVertices = 1u << 0,
+  kCollideEdges = 1u << 1,
+  kCollideFaces = 1u << 2,
+  kCollideAll = kCollideVertices | kCollideEdges | kCollideFaces,
+};
+
+// An object's contact coefficients (nucleon/material.h).
+struct ObjectSurface {
+  Real friction = 0, staticFriction = 0, restitution = 0, stickiness = 0;
+};
+
+struct CollisionPrimitives {
+  // Points.
+  std::vector<Index> pointParticle;
+  std::vector<Real> pointRadius;
+  std::vector<std::uint32_t> pointObject;
+  std::vector<std::uint8_t> pointIsolated;  // 1 if no edge of its object uses the point
+  // Edges: two particle indices, ascending.
+  std::vector<std::array<Index, 2>> edgeParticles;
+  std::vector<Real> edgeRadius;
+  std::vector<std::uint32_t> edgeObject;
+  // Triangles: three particle indices in the object's orientation.
+  std::vector<std::array<Index, 3>> triangleParticles;
+  std::vector<Real> triangleRadius;
+  std::vector<std::uint32_t> triangleObject;
+
+  // Per object: the coefficients its contacts mix (friction, restitution, stickiness).
+  std::vector<ObjectSurface> objectSurface;
+
+  // Object pairs that never collide, as (min << 32 | max), sorted; (a, a) turns off the
+  // self-collision of object a.
+  std::vector<std::uint64_t> excludedPairs;
+
+  std::size_t points() const { return pointParticle.size(); }
+  std::size_t edges() const { return edgeParticles.size(); }
+  std::size_t triangles() const { return triangleParticles.size(); }
+  std::size_t total() const { return points() + edges() + triangles(); }
+
+  static std::uint64_t pairKey(std::uint32_t a, std::uint32_t b) {
+    return a < b ? (std::uint64_t{a} << 32 | b) : (std::uint64_t{b} << 32 | a);
+  }
+  bool excluded(std::uint32_t objectA, std::uint32_t objectB) const {
+    return std::binary_search(excludedPairs.begin(), excludedPairs.end(),
+                              pairKey(objectA, objectB));
+  }
+  void clear() {
+    pointParticle.clear(), pointRadius.clear(), pointObject.clear(), pointIsolated.clear();
+    edgeParticles.clear(), edgeRadius.clear(), edgeObject.clear();
+    triangleParticles.clear(), triangleRadius.clear(), triangleObject.clear();
+    objectSurface.clear(), excludedPairs.clear();
+  }
+};
+
+}  // namespace nucleon

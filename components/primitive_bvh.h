@@ -1,0 +1,95 @@
+// Bounding volume hierarchies over the swept boxes of the collision primitives: the broad phase's
+// acceleration structure (systems/broad_phase.*), built with Embree.
+//
+// Lifetime: a tree is built from scratch when the number of boxes it holds changes and refit
+// otherwise (Embree keeps the tree's topology and recomputes its node bounds from the new boxes),
+// which is what a simulation needs from one substep to the next. Three trees, one per kind of
+// primitive a query looks for: triangles, edges and isolated points. Embree itself stays inside
+// primitive_bvh.cpp, so that including this header (through world_state.h) does not pull in
+// Embree's headers.
+//
+// The component also keeps the broad phase's scratch (query boxes, per-chunk partner lists), so
+// that once its capacities have grown a call allocates nothing.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "nucleon/types.h"
+
+namespace nucleon {
+
+// An axis-aligned box in float, the precision Embree stores bounds in. A box whose lower corner
+// is above its upper one is empty and overlaps nothing: the box of a skipped primitive.
+struct PrimitiveBox {
+  std::array<float, 3> lower;
+  std::array<float, 3> upper;
+
+  static constexpr PrimitiveBox empty() {
+    constexpr float big = 3.0e38f;
+    return {{big, big, big}, {-big, -big, -big}};
+  }
+  bool isEmpty() const {
+    return !(lower[0] <= upper[0] && lower[1] <= upper[1] && lower[2] <= upper[2]);
+  }
+};
+
+// Closed boxes: touching counts as overlapping. False whenever either box is empty.
+inline bool overlaps(const PrimitiveBox& a, const PrimitiveBox& b) {
+  return a.lower[0] <= b.upper[0] && b.lower[0] <= a.upper[0] && a.lower[1] <= b.upper[1] &&
+         b.lower[1] <= a.upper[1] && a.lower[2] <= b.upper[2] && b.lower[2] <= a.upper[2] &&
+         !a.isEmpty() && !b.isEmpty();
+}
+
+enum class BvhTree : std::uint8_t { Triangles, Edges, IsolatedPoints };
+constexpr std::size_t kBvhTreeCount = 3;
+
+class PrimitiveBvh {
+ public:
+  PrimitiveBvh();
+  ~PrimitiveBvh();
+  PrimitiveBvh(PrimitiveBvh&&) noexcept;
+  PrimitiveBvh& operator=(PrimitiveBvh&&) noexcept;
+  PrimitiveBvh(const PrimitiveBvh&) = delete;
+  PrimitiveBvh& operator=(const PrimitiveBvh&) = delete;
+
+  // The boxes each tree bounds, by tree (index with the BvhTree value); primitive i of a tree is
+  // boxes[tree][i]. Written by the broad phase, then commit().
+  std::array<std::vector<PrimitiveBox>, kBvhTreeCount> boxes;
+
+  // Makes every tree bound its current boxes: built from scratch where the number of boxes
+  // differs from the one the tree was built for, refit otherwise. Returns whether any tree was
+  // built from scratch. A tree without boxes holds no Embree scene.
+  bool commit();
+
+  // Calls visit(context, i) once for every primitive i of `tree` whose box overlaps `query`, in no
+  // particular order. Safe to call from many threads at once between two commits.
+  using Visitor = void (*)(void* context, Index primitive);
+  void forEachOverlap(BvhTree tree, const PrimitiveBox& query, Visitor visit, void* context) const;
+
+  std::size_t builtCount(BvhTree tree) const { return builtCount_[static_cast<std::size_t>(tree)]; }
+  // Trees built from scratch and trees refit, over the component's lifetime.
+  std::size_t builds() const { return builds_; }
+  std::size_t refits() const { return refits_; }
+  // Errors Embree reported to the device's error callback (none in a healthy run).
+  std::size_t embreeErrors() const;
+
+  // Broad phase scratch, kept between calls for its capacity.
+  std::vector<PrimitiveBox> pointBoxes;  // query box of every point
+  std::vector<Index> isolatedPoints;     // the point of each primitive of the IsolatedPoints tree
+  std::vector<Index> partnerCount;       // per query: partners kept
+  std::vector<std::vector<Index>> chunkPartners;  // per chunk of queries: their partners in order
+  std::vector<std::size_t> chunkOffset;           // per chunk: where its pairs start in the output
+
+ private:
+  struct Embree;
+  std::unique_ptr<Embree> embree_;
+  std::array<std::size_t, kBvhTreeCount> builtCount_{};
+  std::size_t builds_ = 0;
+  std::size_t refits_ = 0;
+};
+
+}  // namespace nucleon

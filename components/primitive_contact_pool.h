@@ -1,0 +1,66 @@
+// Contacts between collision primitives (vertex–face, edge–edge, vertex–edge, vertex–vertex), as
+// structure of arrays: unilateral constraints solved with the other families. Per-substep
+// lifetime: refilled from the candidate pairs every substep into storage that keeps its capacity.
+//
+// Every contact is the same linear form over up to four particles (ARCHITECTURE.md §5):
+//   C(p) = n · Σ_k c_k p_k − distance ≥ 0
+// with the fixed unit normal n, pointing from the second primitive to the first, and coefficients
+// c_k: the first primitive's interpolation weights with a plus sign, the second's with a minus sign
+// (vertex–face: 1, −b0, −b1, −b2; edge–edge: 1−s, s, −(1−t), −t). Unused slots have c_k = 0. n, the
+// weights and the distance are fixed when the contact is made, at the pair's time of impact within
+// the substep (or its start), which makes the constraint a separating plane that the sweeps hold
+// however far the primitives were predicted to travel through each other.
+//
+// For the parallel backends the corrections are gathered per particle through a CSR incidence
+// (particle → (contact, slot)) built with the pool, in contact order, so the result does not
+// depend on the thread count.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "nucleon/types.h"
+
+namespace nucleon {
+
+struct PrimitiveContactPool {
+  std::vector<std::array<Index, 4>> particles;
+  std::vector<std::array<Real, 4>> coefficient;  // c_k; 0 for unused slots
+  std::vector<Vec3> normal;
+  std::vector<Real> distance;  // the radii summed: the separation the contact keeps
+  std::vector<Real> lambda;    // normal correction accumulated over the substep (m)
+  std::vector<Real> friction;  // Coulomb μ_k of the pair
+  std::vector<Real> staticFriction;
+  std::vector<Real> restitution;    // e of the pair
+  std::vector<Real> stickiness;     // separation (m) beyond `distance` that is still pulled back
+  std::vector<Real> approachSpeed;  // n · Σ c_k v_k when the contact was made (< 0: closing)
+
+  // Per-contact scratch of the parallel backends: the step Δλ of the last projection.
+  std::vector<Real> step;
+  // CSR incidence for the parallel gather: contacts touching particle i are
+  // incidence[incidenceOffset[i] .. incidenceOffset[i+1]) as (contact << 2 | slot).
+  std::vector<Index> incidenceOffset;
+  std::vector<Index> incidence;
+  std::vector<Index> touched;  // particles with at least one contact, ascending
+
+  // Friction scratch of the parallel backends: the tangential correction of each contact.
+  std::vector<Vec3> tangentStep;
+
+  // Per candidate pair: whether it became a contact, then its place in the pool; its distance at
+  // the start of the substep; whether the fail-safe must test it with CCD.
+  std::vector<Index> slotOfCandidate;
+  std::vector<double> startDistance;
+  std::vector<std::uint8_t> suspect;
+  // Per particle: p as predicted before the solve (what the broad phase's bounds enclose).
+  std::vector<Vec3> predicted;
+
+  std::size_t size() const { return particles.size(); }
+  void resize(std::size_t n) {
+    particles.resize(n), coefficient.resize(n), normal.resize(n), distance.resize(n);
+    lambda.resize(n), friction.resize(n), staticFriction.resize(n), restitution.resize(n);
+    stickiness.resize(n), approachSpeed.resize(n), step.resize(n), tangentStep.resize(n);
+  }
+};
+
+}  // namespace nucleon

@@ -1,0 +1,70 @@
+// Broad phase: the candidate pairs of collision primitives that may come into contact over a
+// substep (components/candidate_pairs.h), from the primitives (components/collision_primitives.h)
+// and the particle positions at its start (x) and predicted end (p).
+//
+// Each primitive gets its swept box: the box of its vertices at x and at p, grown by its radius
+// plus half the margin and rounded outward to float. Two boxes overlap exactly when the two
+// primitives' swept hulls may come within (radius A + radius B + margin) of each other in every
+// axis, so a pair whose boxes are apart cannot touch during the substep if each vertex moves on a
+// straight line. The candidates are the box-overlapping pairs of these kinds:
+//
+//   VertexFace    every point against every triangle
+//   EdgeEdge      every edge against every other edge
+//   VertexEdge    isolated points against edges
+//   VertexVertex  isolated points against each other
+//
+// less those sharing a particle, joining an excluded object pair, or whose particles all have
+// inverse mass 0. A primitive with a coordinate that is not finite (or beyond ±1e18 m, outside
+// the range Embree accepts) is skipped: it takes part in no pair, and the count is reported.
+//
+// findCandidatePairs keeps the boxes in Embree trees (components/primitive_bvh.h), refit from one
+// call to the next while the primitive counts stay, and queries them per primitive in parallel
+// over fixed chunks of primitives: each chunk's pairs come out sorted, and the chunks are
+// concatenated in order, so the result is the same sorted list for any thread count.
+// findCandidatePairsBruteForce tests every pair of boxes: the reference.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <span>
+
+#include "components/candidate_pairs.h"
+#include "components/collision_primitives.h"
+#include "components/primitive_bvh.h"
+#include "nucleon/types.h"
+
+namespace nucleon {
+
+struct BroadPhaseStats {
+  std::array<std::size_t, 4> pairs{};  // pairs found, by PairKind
+  std::size_t skippedPrimitives = 0;   // points, edges and triangles with a non-finite coordinate
+  bool rebuilt = false;                // a tree was built from scratch (the counts changed)
+  // Wall time of the stages, in seconds (zero for the brute force).
+  double boxSeconds = 0;
+  double commitSeconds = 0;
+  double querySeconds = 0;
+
+  std::size_t totalPairs() const { return pairs[0] + pairs[1] + pairs[2] + pairs[3]; }
+};
+
+// The swept box of a primitive with the given particles: the box of their positions in x and in
+// p, grown by `inflation`, rounded outward to float. Empty (PrimitiveBox::isEmpty) if a coordinate
+// or the result is not finite or beyond ±1e18.
+PrimitiveBox sweptBox(std::span<const Index> particles, std::span<const Vec3> x,
+                      std::span<const Vec3> p, Real inflation);
+
+// Refills `out` with the candidate pairs, sorted by (kind, first, second). `bvh` is the world's
+// broad phase state: reused between calls, it is refit while the primitive counts stay the same.
+// Once its scratch has grown, a call allocates nothing.
+BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
+                                   const CollisionPrimitives& primitives, std::span<const Vec3> x,
+                                   std::span<const Vec3> p, std::span<const Real> w, Real margin);
+
+// The same pairs, by testing the boxes of every pair of primitives: quadratic, for tests and
+// scale.
+BroadPhaseStats findCandidatePairsBruteForce(CandidatePairs& out,
+                                             const CollisionPrimitives& primitives,
+                                             std::span<const Vec3> x, std::span<const Vec3> p,
+                                             std::span<const Real> w, Real margin);
+
+}  // namespace nucleon

@@ -1,0 +1,81 @@
+#include "systems/collision_primitives_build.h"
+
+#include <algorithm>
+#include <set>
+
+namespace nucleon {
+namespace {
+
+void addPoint(CollisionPrimitives& out, Index particle, Real radius, std::uint32_t object,
+              bool isolated) {
+  out.pointParticle.push_back(particle);
+  out.pointRadius.push_back(radius);
+  out.pointObject.push_back(object);
+  out.pointIsolated.push_back(isolated ? 1 : 0);
+}
+
+}  // namespace
+
+void buildCollisionPrimitives(CollisionPrimitives& out, const std::vector<ObjectRecord>& objects,
+                              const std::vector<std::uint64_t>& excludedObjectPairs) {
+  out.clear();
+  out.excludedPairs = excludedObjectPairs;
+  for (std::uint32_t o = 0; o < objects.size(); ++o) {
+    const ObjectRecord& record = objects[o];
+    const Material& m = record.material;
+    const Index first = record.firstParticle;
+    const Real radius = m.thickness;
+    out.objectSurface.push_back({m.friction, m.staticFriction, m.restitution, m.stickiness});
+    if (!m.selfCollision) out.excludedPairs.push_back(CollisionPrimitives::pairKey(o, o));
+
+    // The simplices that bound the object: a solid collides through its boundary surface only,
+    // everything else through all of its simplices.
+    std::vector<std::array<Index, 2>> edges;
+    std::vector<std::array<Index, 3>> triangles;
+    std::vector<std::uint8_t> onSurface(record.particleCount, 0);
+    if (record.kind == ObjectKind::Solid) {
+      triangles = record.surface;
+      std::set<std::array<Index, 2>> unique;
+      for (const auto& t : triangles)
+        for (int k = 0; k < 3; ++k) {
+          const Index a = t[k], b = t[(k + 1) % 3];
+          unique.insert({std::min(a, b), std::max(a, b)});
+        }
+      edges.assign(unique.begin(), unique.end());
+    } else {
+      triangles.assign(record.complex.triangles.vertices.begin(),
+                       record.complex.triangles.vertices.end());
+      for (const auto& e : record.complex.edges.vertices)
+        edges.push_back({std::min(e[0], e[1]), std::max(e[0], e[1])});
+    }
+    std::vector<std::uint8_t> inEdge(record.particleCount, 0);
+    for (const auto& e : edges) inEdge[e[0]] = inEdge[e[1]] = 1;
+    for (const auto& t : triangles)
+      for (Index v : t) onSurface[v] = 1;
+    for (const auto& e : edges) onSurface[e[0]] = onSurface[e[1]] = 1;
+
+    if (m.collideVertices)
+      for (Index v = 0; v < record.particleCount; ++v) {
+        // Interior vertices of a solid never reach another object before its surface does.
+        if (record.kind == ObjectKind::Solid && !onSurface[v]) continue;
+        addPoint(out, first + v, radius, o, !inEdge[v]);
+      }
+    if (m.collideEdges)
+      for (const auto& e : edges) {
+        out.edgeParticles.push_back({first + e[0], first + e[1]});
+        out.edgeRadius.push_back(radius);
+        out.edgeObject.push_back(o);
+      }
+    if (m.collideFaces)
+      for (const auto& t : triangles) {
+        out.triangleParticles.push_back({first + t[0], first + t[1], first + t[2]});
+        out.triangleRadius.push_back(radius);
+        out.triangleObject.push_back(o);
+      }
+  }
+  std::sort(out.excludedPairs.begin(), out.excludedPairs.end());
+  out.excludedPairs.erase(std::unique(out.excludedPairs.begin(), out.excludedPairs.end()),
+                          out.excludedPairs.end());
+}
+
+}  // namespace nucleon

@@ -1,0 +1,74 @@
+// Contacts between collision primitives: from the broad phase's candidate pairs to unilateral
+// constraints solved with the other families, and the fail-safe that leaves no crossing.
+//
+//   detectPrimitiveContacts   after the broad phase: each candidate pair whose motion may bring
+//                             it within its contact distance (plus the margin) becomes a contact,
+//                             with normal and weights at its time of impact (space-time CCD)
+//   projectPrimitiveContacts  after each sweep round: C = n · Σ c_k p_k − distance ≥ 0
+//   applyPrimitiveFriction    end of the solve: Coulomb friction on the substep's relative
+//                             tangential motion, bounded by μ λ_n (Macklin et al. 2014 §6)
+//   resolveCrossings          end of the solve: the final motion x → p of every candidate pair
+//                             is checked by CCD at zero thickness; particles of a crossing pair
+//                             stop where the substep started (or follow the kinematic primitive
+//                             that pushes them), which can only shrink motions, until none is
+//                             left: a bounded impact-zone fail-safe (Bridson et al. 2002 §7.4
+//                             in spirit) that keeps an intersection-free state intersection-free
+//   applyRestitution          after the update: closing contacts bounce with restitution e
+//
+// Pairs within one object that are closer than their contact distance in the rest shape get no
+// contact (the mesh's own constraints hold them), but they are still checked for crossings.
+#pragma once
+
+#include <cstddef>
+
+#include "components/candidate_pairs.h"
+#include "components/collision_primitives.h"
+#include "components/particles.h"
+#include "components/primitive_contact_pool.h"
+#include "nucleon/solver_settings.h"
+#include "nucleon/types.h"
+
+namespace nucleon {
+
+struct ObjectRecord;
+
+// How much farther than its contact distance a pair may be and still get a contact (m): the room
+// the sweeps have to move the primitives together after detection. The broad phase inflates
+// bounds by the same amount, and the solve keeps every particle within it of its predicted
+// motion's bounds, so no crossing can escape the candidate set.
+constexpr Real kPrimitiveContactMargin = Real(0.005);
+
+// Refills `contacts` from the candidate pairs (x: start of the substep, p: predicted end, v:
+// velocity before the solve). Also keeps a copy of p as the predicted positions the solve's
+// motion is bounded by. Deterministic: contacts come out in candidate order.
+void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
+                             const CollisionPrimitives& primitives, const ParticlePool& particles);
+
+// Projects every contact onto particles.p: Gauss–Seidel in pool order, the parallel backends by a
+// per-particle gather of every contact's correction (averaged over the particle's contacts).
+void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& particles,
+                              SolverKind kind);
+
+// Coulomb friction over the substep's relative tangential motion of each contact that pushed.
+void applyPrimitiveFriction(PrimitiveContactPool& contacts, ParticlePool& particles,
+                            SolverKind kind);
+
+struct CrossingReport {
+  std::size_t clamped = 0;     // particles pulled back inside their broad-phase bounds
+  std::size_t crossings = 0;   // crossing pairs the fail-safe found (summed over its rounds)
+  std::size_t stopped = 0;     // particle positions it reset
+  std::size_t unresolved = 0;  // pairs still crossing when its round limit was reached
+  int rounds = 0;
+};
+
+// Keeps the solve's final motion crossing-free (see the header comment). `margin` is the broad
+// phase's inflation.
+CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
+                                const CollisionPrimitives& primitives, ParticlePool& particles,
+                                Real margin);
+
+// Restitution of closing contacts after the velocity update (v = (p − x)/h already holds the
+// inelastic response): the relative normal velocity becomes at least −e times its approach value.
+void applyRestitution(const PrimitiveContactPool& contacts, ParticlePool& particles);
+
+}  // namespace nucleon

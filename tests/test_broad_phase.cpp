@@ -1,0 +1,407 @@
+// The broad phase (systems/broad_phase.*): Embree's candidate pairs against the brute force, pair
+// for pair, on random primitive soups and on a cloth folded over itself; the same pairs for one
+// and two threads; the tree refit while the counts stay and rebuilt when they change; the pair
+// rules of components/candidate_pairs.h; non-finite positions and empty input.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <set>
+#include <tuple>
+#include <vector>
+
+#include <tbb/task_arena.h>
+
+#include <gtest/gtest.h>
+
+#include "components/candidate_pairs.h"
+#include "components/collision_primitives.h"
+#include "components/primitive_bvh.h"
+#include "nucleon/shapes.h"
+#include "systems/broad_phase.h"
+
+namespace nucleon {
+namespace {
+
+struct Scene {
+  CollisionPrimitives primitives;
+  std::vector<Vec3> x, p;
+  std::vector<Real> w;
+  Real margin = Real(0.01);
+
+  BroadPhaseStats embree(CandidatePairs& out, PrimitiveBvh& bvh) const {
+    return findCandidatePairs(out, bvh, primitives, x, p, w, margin);
+  }
+  BroadPhaseStats bruteForce(CandidatePairs& out) const {
+    return findCandidatePairsBruteForce(out, primitives, x, p, w, margin);
+  }
+};
+
+void addPoint(CollisionPrimitives& c, Index particle, Real radius, std::uint32_t object,
+              bool isolated) {
+  c.pointParticle.push_back(particle);
+  c.pointRadius.push_back(radius);
+  c.pointObject.push_back(object);
+  c.pointIsolated.push_back(isolated);
+}
+void addEdge(CollisionPrimitives& c, Index a, Index b, Real radius, std::uint32_t object) {
+  c.edgeParticles.push_back({std::min(a, b), std::max(a, b)});
+  c.edgeRadius.push_back(radius);
+  c.edgeObject.push_back(object);
+}
+void addTriangle(CollisionPrimitives& c, std::array<Index, 3> t, Real radius,
+                 std::uint32_t object) {
+  c.triangleParticles.push_back(t);
+  c.triangleRadius.push_back(radius);
+  c.triangleObject.push_back(object);
+}
+
+// Four objects of 60 particles in a unit cube moving up to 0.06 per axis: two triangle soups
+// (with their edges), a rope with loose particles, a particle cloud. Radii vary per primitive;
+// every sixth particle is pinned. Objects 0 and 1 never collide with each other and object 2 not
+// with itself.
+Scene randomScene(unsigned seed) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> unit(0, 1), motion(-0.06, 0.06), radius(0.002, 0.03);
+  Scene s;
+  const Index perObject = 60;
+  for (std::uint32_t o = 0; o < 4; ++o) {
+    const Index first = o * perObject;
+    for (Index i = 0; i < perObject; ++i) {
+      const Vec3 x(Real(unit(random)), Real(unit(random)), Real(unit(random)));
+      s.x.push_back(x);
+      s.p.push_back(x + Vec3(Real(motion(random)), Real(motion(random)), Real(motion(random))));
+      s.w.push_back(random() % 6 == 0 ? Real(0) : Real(1));
+    }
+    std::vector<bool> inEdge(perObject, false);
+    std::set<std::pair<Index, Index>> edges;
+    auto local = [&](Index n) { return Index(random() % n); };
+    if (o < 2) {
+      for (int t = 0; t < 30; ++t) {
+        // Corners drawn near each other, so that triangles are small and share vertices.
+        const Index a = local(perObject - 6);
+        std::array<Index, 3> tri = {first + a, first + a + 1 + local(3), first + a + 4 + local(2)};
+        if (random() % 2) std::swap(tri[1], tri[2]);
+        addTriangle(s.primitives, tri, Real(radius(random)), o);
+        for (int k = 0; k < 3; ++k) {
+          const Index u = std::min(tri[k], tri[(k + 1) % 3]), v = std::max(tri[k], tri[(k + 1) % 3]);
+          edges.insert({u, v});
+        }
+      }
+    } else if (o == 2) {
+      for (Index i = 0; i + 1 < perObject / 2; ++i) edges.insert({first + i, first + i + 1});
+    }
+    for (const auto& [u, v] : edges) {
+      addEdge(s.primitives, u, v, Real(radius(random)), o);
+      inEdge[u - first] = inEdge[v - first] = true;
+    }
+    for (Index i = 0; i < perObject; ++i)
+      addPoint(s.primitives, first + i, Real(radius(random)), o, !inEdge[i]);
+  }
+  s.primitives.excludedPairs = {CollisionPrimitives::pairKey(0, 1),
+                                CollisionPrimitives::pairKey(2, 2)};
+  std::sort(s.primitives.excludedPairs.begin(), s.primitives.excludedPairs.end());
+  s.margin = Real(0.005);
+  return s;
+}
+
+// A 1 m cloth of n × n vertices folded into three layers stacked 3/4 of an edge apart, falling
+// by a third of an edge over the substep with a little jitter; radius a quarter of an edge. One
+// row is pinned.
+Scene foldedCloth(int n, unsigned seed) {
+  GridSpec spec;
+  spec.resolution = {n, n};
+  spec.size = {1, 1};
+  spec.center = Vec3(0, 0, 0);
+  const ObjectDef cloth = gridCloth(spec);
+  const Real edge = Real(1) / Real(n - 1);
+  const Real radius = edge / 4, gap = 3 * radius;
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> jitter(-0.05 * edge, 0.05 * edge);
+  Scene s;
+  for (std::size_t v = 0; v < cloth.vertices.size(); ++v) {
+    const Vec3& rest = cloth.vertices[v];
+    const Real along = (rest.x() + Real(0.5)) * 3;
+    const int layer = std::min(int(along), 2);
+    const Real t = along - Real(layer);
+    const Real folded = layer % 2 == 0 ? t : 1 - t;
+    const Vec3 x(folded / 3, Real(layer) * gap, rest.z());
+    s.x.push_back(x);
+    s.p.push_back(x + Vec3(Real(jitter(random)), -edge / 3 + Real(jitter(random)),
+                           Real(jitter(random))));
+    s.w.push_back(v < std::size_t(n) ? Real(0) : Real(1));
+  }
+  std::set<std::pair<Index, Index>> edges;
+  for (const auto& t : cloth.triangles) {
+    addTriangle(s.primitives, t, radius, 0);
+    for (int k = 0; k < 3; ++k)
+      edges.insert({std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])});
+  }
+  for (const auto& [u, v] : edges) addEdge(s.primitives, u, v, radius, 0);
+  for (Index v = 0; v < cloth.vertices.size(); ++v) addPoint(s.primitives, v, radius, 0, false);
+  s.margin = radius;
+  return s;
+}
+
+void expectSamePairs(const CandidatePairs& a, const CandidatePairs& b) {
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_TRUE(a.kind == b.kind);
+  EXPECT_TRUE(a.first == b.first);
+  EXPECT_TRUE(a.second == b.second);
+}
+
+std::vector<Index> particlesOf(const CollisionPrimitives& c, PairKind kind, bool first, Index i) {
+  const bool point = first ? kind != PairKind::EdgeEdge
+                           : kind == PairKind::VertexVertex;
+  const bool triangle = !first && kind == PairKind::VertexFace;
+  if (point) return {c.pointParticle[i]};
+  if (triangle) return {c.triangleParticles[i].begin(), c.triangleParticles[i].end()};
+  return {c.edgeParticles[i].begin(), c.edgeParticles[i].end()};
+}
+std::uint32_t objectOf(const CollisionPrimitives& c, PairKind kind, bool first, Index i) {
+  const bool point = first ? kind != PairKind::EdgeEdge : kind == PairKind::VertexVertex;
+  if (point) return c.pointObject[i];
+  if (!first && kind == PairKind::VertexFace) return c.triangleObject[i];
+  return c.edgeObject[i];
+}
+
+// The rules of components/candidate_pairs.h, pair by pair.
+void expectPairRules(const Scene& s, const CandidatePairs& pairs) {
+  const CollisionPrimitives& c = s.primitives;
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    const PairKind kind = pairs.kind[k];
+    const Index a = pairs.first[k], b = pairs.second[k];
+    if (k > 0)
+      ASSERT_LT(std::make_tuple(pairs.kind[k - 1], pairs.first[k - 1], pairs.second[k - 1]),
+                std::make_tuple(kind, a, b));
+    if (kind == PairKind::EdgeEdge || kind == PairKind::VertexVertex) ASSERT_LT(a, b);
+    if (kind == PairKind::VertexEdge || kind == PairKind::VertexVertex)
+      ASSERT_TRUE(c.pointIsolated[a]);
+    if (kind == PairKind::VertexVertex) ASSERT_TRUE(c.pointIsolated[b]);
+    const auto pa = particlesOf(c, kind, true, a), pb = particlesOf(c, kind, false, b);
+    bool free = false;
+    for (Index i : pa) {
+      free |= s.w[i] != 0;
+      for (Index j : pb) ASSERT_NE(i, j) << "pair " << k << " shares a particle";
+    }
+    for (Index j : pb) free |= s.w[j] != 0;
+    ASSERT_TRUE(free) << "pair " << k << " has no free particle";
+    ASSERT_FALSE(c.excluded(objectOf(c, kind, true, a), objectOf(c, kind, false, b)));
+  }
+}
+
+std::size_t countKind(const CandidatePairs& pairs, PairKind kind) {
+  return std::count(pairs.kind.begin(), pairs.kind.end(), kind);
+}
+
+TEST(BroadPhase, SweptBoxContainsTheSweptPrimitiveRoundedOutward) {
+  const std::vector<Vec3> x = {Vec3(Real(0.1), Real(0.2), Real(-0.3)), Vec3(1, 2, 3)};
+  const std::vector<Vec3> p = {Vec3(Real(0.15), Real(0.1), Real(-0.35)), Vec3(1, Real(2.5), 3)};
+  const std::array<Index, 2> edge = {0, 1};
+  const Real grow = Real(0.0123);
+  const PrimitiveBox box = sweptBox(edge, x, p, grow);
+  ASSERT_FALSE(box.isEmpty());
+  for (int k = 0; k < 3; ++k) {
+    double lo = 1e30, hi = -1e30;
+    for (const auto* v : {&x[0], &x[1], &p[0], &p[1]}) {
+      lo = std::min(lo, double((*v)[k])), hi = std::max(hi, double((*v)[k]));
+    }
+    EXPECT_LT(double(box.lower[k]), lo - double(grow));
+    EXPECT_GT(double(box.upper[k]), hi + double(grow));
+    EXPECT_GT(double(box.lower[k]), lo - double(grow) - 1e-5);
+    EXPECT_LT(double(box.upper[k]), hi + double(grow) + 1e-5);
+  }
+  std::vector<Vec3> bad = x;
+  bad[1].y() = std::numeric_limits<Real>::quiet_NaN();
+  EXPECT_TRUE(sweptBox(edge, bad, p, grow).isEmpty());
+  bad[1].y() = std::numeric_limits<Real>::infinity();
+  EXPECT_TRUE(sweptBox(edge, bad, p, grow).isEmpty());
+}
+
+TEST(BroadPhase, RandomScenesMatchTheBruteForce) {
+  for (unsigned seed : {1u, 2u, 3u, 4u, 5u, 6u}) {
+    SCOPED_TRACE(seed);
+    const Scene s = randomScene(seed);
+    CandidatePairs reference, pairs;
+    PrimitiveBvh bvh;
+    const BroadPhaseStats expected = s.bruteForce(reference);
+    const BroadPhaseStats stats = s.embree(pairs, bvh);
+    expectSamePairs(pairs, reference);
+    expectPairRules(s, pairs);
+    EXPECT_EQ(stats.pairs, expected.pairs);
+    EXPECT_EQ(stats.skippedPrimitives, 0u);
+    for (PairKind kind : {PairKind::VertexFace, PairKind::EdgeEdge, PairKind::VertexEdge,
+                          PairKind::VertexVertex}) {
+      EXPECT_GT(countKind(pairs, kind), 0u) << "kind " << int(kind);
+      EXPECT_EQ(countKind(pairs, kind), stats.pairs[std::size_t(kind)]);
+    }
+    EXPECT_EQ(bvh.embreeErrors(), 0u);
+  }
+}
+
+TEST(BroadPhase, ExclusionsAndPinsAreApplied) {
+  const Scene s = randomScene(11);
+  CandidatePairs pairs;
+  PrimitiveBvh bvh;
+  s.embree(pairs, bvh);
+  // Turning the rules off changes the result, so the scene does exercise them.
+  Scene open = s;
+  open.primitives.excludedPairs.clear();
+  std::fill(open.w.begin(), open.w.end(), Real(1));
+  CandidatePairs more;
+  open.embree(more, bvh);
+  EXPECT_GT(more.size(), pairs.size());
+  CandidatePairs reference;
+  open.bruteForce(reference);
+  expectSamePairs(more, reference);
+}
+
+TEST(BroadPhase, FoldedClothMatchesTheBruteForce) {
+  const Scene s = foldedCloth(24, 3);
+  CandidatePairs reference, pairs;
+  PrimitiveBvh bvh;
+  s.bruteForce(reference);
+  const BroadPhaseStats stats = s.embree(pairs, bvh);
+  expectSamePairs(pairs, reference);
+  expectPairRules(s, pairs);
+  // Layers are within reach of each other: both kinds of cloth pairs are found.
+  EXPECT_GT(stats.pairs[std::size_t(PairKind::VertexFace)], 1000u);
+  EXPECT_GT(stats.pairs[std::size_t(PairKind::EdgeEdge)], 1000u);
+  EXPECT_EQ(stats.pairs[std::size_t(PairKind::VertexEdge)], 0u);
+  EXPECT_EQ(stats.pairs[std::size_t(PairKind::VertexVertex)], 0u);
+}
+
+TEST(BroadPhase, SamePairsForOneAndTwoThreads) {
+  for (const Scene& s : {randomScene(21), foldedCloth(32, 5)}) {
+    CandidatePairs one, two;
+    PrimitiveBvh bvhOne, bvhTwo;
+    tbb::task_arena(1).execute([&] { s.embree(one, bvhOne); });
+    tbb::task_arena(2).execute([&] { s.embree(two, bvhTwo); });
+    expectSamePairs(one, two);
+    // And the same tree queried from the other arena.
+    tbb::task_arena(2).execute([&] { s.embree(two, bvhOne); });
+    expectSamePairs(one, two);
+  }
+}
+
+TEST(BroadPhase, RefitsWhileTheCountsStayAndRebuildsWhenTheyChange) {
+  Scene s = randomScene(31);
+  CandidatePairs pairs, reference;
+  PrimitiveBvh bvh;
+  EXPECT_TRUE(s.embree(pairs, bvh).rebuilt);
+  const std::size_t builds = bvh.builds(), refits = bvh.refits();
+  EXPECT_EQ(builds, 3u);  // triangles, edges, isolated points
+  EXPECT_EQ(refits, 0u);
+  EXPECT_EQ(bvh.builtCount(BvhTree::Triangles), s.primitives.triangles());
+
+  // Second call, same counts: refit only, same pairs.
+  CandidatePairs again;
+  EXPECT_FALSE(s.embree(again, bvh).rebuilt);
+  EXPECT_EQ(bvh.builds(), builds);
+  EXPECT_EQ(bvh.refits(), refits + 3);
+  expectSamePairs(again, pairs);
+
+  // Positions change a lot (the tree's topology is now poor for them): the refit tree still
+  // finds every pair.
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> shift(-0.4, 0.4);
+  for (std::size_t i = 0; i < s.x.size(); ++i) {
+    const Vec3 d(Real(shift(random)), Real(shift(random)), Real(shift(random)));
+    s.x[i] += d, s.p[i] += d;
+  }
+  EXPECT_FALSE(s.embree(pairs, bvh).rebuilt);
+  EXPECT_EQ(bvh.builds(), builds);
+  s.bruteForce(reference);
+  expectSamePairs(pairs, reference);
+
+  // One more triangle: its tree is rebuilt, the others refit.
+  addTriangle(s.primitives, {0, 1, 2}, Real(0.02), 0);
+  EXPECT_TRUE(s.embree(pairs, bvh).rebuilt);
+  EXPECT_EQ(bvh.builds(), builds + 1);
+  EXPECT_EQ(bvh.builtCount(BvhTree::Triangles), s.primitives.triangles());
+  s.bruteForce(reference);
+  expectSamePairs(pairs, reference);
+  EXPECT_EQ(bvh.embreeErrors(), 0u);
+}
+
+TEST(BroadPhase, NoPairSharesAParticle) {
+  // Every cloth vertex is within reach of its own triangles and edges: all of those are dropped.
+  const Scene s = foldedCloth(12, 9);
+  CandidatePairs pairs;
+  PrimitiveBvh bvh;
+  s.embree(pairs, bvh);
+  expectPairRules(s, pairs);
+  Scene flat = s;
+  flat.p = flat.x;
+  for (std::size_t i = 0; i < flat.x.size(); ++i) flat.x[i].y() = flat.p[i].y() = 0;
+  flat.primitives.excludedPairs.clear();
+  flat.embree(pairs, bvh);
+  expectPairRules(flat, pairs);
+}
+
+TEST(BroadPhase, NonFinitePositionsAreSkipped) {
+  for (Real bad : {std::numeric_limits<Real>::quiet_NaN(), std::numeric_limits<Real>::infinity(),
+                   Real(1e30)}) {
+    Scene s = foldedCloth(16, 2);
+    const Index particle = 100;
+    s.p[particle].x() = bad;
+    std::size_t using_ = 1;  // its point
+    for (const auto& e : s.primitives.edgeParticles)
+      using_ += std::count(e.begin(), e.end(), particle);
+    for (const auto& t : s.primitives.triangleParticles)
+      using_ += std::count(t.begin(), t.end(), particle);
+    CandidatePairs pairs, reference;
+    PrimitiveBvh bvh;
+    const BroadPhaseStats stats = s.embree(pairs, bvh);
+    EXPECT_EQ(stats.skippedPrimitives, using_);
+    EXPECT_GT(pairs.size(), 0u);
+    for (std::size_t k = 0; k < pairs.size(); ++k)
+      for (bool first : {true, false}) {
+        const auto particles = particlesOf(s.primitives, pairs.kind[k], first,
+                                           first ? pairs.first[k] : pairs.second[k]);
+        ASSERT_EQ(std::count(particles.begin(), particles.end(), particle), 0);
+      }
+    EXPECT_EQ(s.bruteForce(reference).skippedPrimitives, using_);
+    expectSamePairs(pairs, reference);
+    // The same tree refit with the particle back to normal finds its pairs again.
+    s.p[particle] = s.x[particle];
+    EXPECT_EQ(s.embree(pairs, bvh).skippedPrimitives, 0u);
+    s.bruteForce(reference);
+    expectSamePairs(pairs, reference);
+    EXPECT_EQ(bvh.embreeErrors(), 0u);
+  }
+}
+
+TEST(BroadPhase, EmptyAndPartialInput) {
+  Scene s;
+  CandidatePairs pairs;
+  pairs.push_back(PairKind::EdgeEdge, 0, 1);  // stale content is replaced
+  PrimitiveBvh bvh;
+  const BroadPhaseStats stats = s.embree(pairs, bvh);
+  EXPECT_EQ(pairs.size(), 0u);
+  EXPECT_EQ(stats.totalPairs(), 0u);
+  EXPECT_EQ(bvh.builds(), 0u);
+
+  // Points alone, none isolated: nothing to query. Then isolated: point–point pairs only.
+  s.x = {Vec3(0, 0, 0), Vec3(Real(0.01), 0, 0)};
+  s.p = s.x;
+  s.w = {1, 1};
+  addPoint(s.primitives, 0, Real(0.01), 0, false);
+  addPoint(s.primitives, 1, Real(0.01), 1, false);
+  s.embree(pairs, bvh);
+  EXPECT_EQ(pairs.size(), 0u);
+  s.primitives.pointIsolated = {1, 1};
+  s.embree(pairs, bvh);
+  ASSERT_EQ(pairs.size(), 1u);
+  EXPECT_EQ(pairs.kind[0], PairKind::VertexVertex);
+  // Back to nothing: the trees are dropped.
+  s.primitives.clear();
+  s.embree(pairs, bvh);
+  EXPECT_EQ(pairs.size(), 0u);
+  EXPECT_EQ(bvh.builtCount(BvhTree::IsolatedPoints), 0u);
+  EXPECT_EQ(bvh.embreeErrors(), 0u);
+}
+
+}  // namespace
+}  // namespace nucleon
