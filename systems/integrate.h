@@ -1,4 +1,5 @@
-// The explicit parts of a substep (ARCHITECTURE.md §2): "implicit on velocity, explicit on position".
+// The explicit parts of a substep (ARCHITECTURE.md §2): "implicit on velocity, explicit on
+// position".
 //
 //   1. applyForces:      v ← v + h g                    (free particles only, w > 0)
 //   2. predictPositions: p ← x + h v                    (the state the constraints are solved at)

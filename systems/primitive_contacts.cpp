@@ -146,6 +146,9 @@ bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectS
   const auto c1 = closestCoefficients(v.kind, X1);
   const double endDistance = combine(c1, X1, v.count).norm();
   if ((startDistance + endDistance - motion) / 2 > reach) return false;
+  // A non-finite prediction gets no contact, so that it cannot spread to the pair's other
+  // particles; the update resets and counts it.
+  if (!std::isfinite(motion) || !std::isfinite(endDistance)) return false;
   if (v.objectA == v.objectB) {
     // Held apart by the mesh itself: no contact between primitives that are closer than their
     // contact distance in the rest shape (they would push the mesh away from its rest shape).
@@ -351,7 +354,7 @@ void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& part
     for (std::size_t c = 0; c < n; ++c) {
       const Real step = contactStep(contacts, particles, c);
       if (step == 0) continue;
-      contacts.lambda[c] += step;
+      contacts.lambda[c] += step * inverseMass(contacts, particles, c);
       const Vec3 push = step * contacts.normal[c];
       for (int k = 0; k < 4; ++k) {
         const Index i = contacts.particles[c][k];
@@ -364,7 +367,8 @@ void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& part
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t c = r.begin(); c != r.end(); ++c) {
                         contacts.step[c] = contactStep(contacts, particles, c);
-                        contacts.lambda[c] += contacts.step[c];
+                        contacts.lambda[c] +=
+                            contacts.step[c] * inverseMass(contacts, particles, c);
                       }
                     });
   gatherCorrections(contacts, particles,
@@ -401,7 +405,8 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
   // phase's inflated boxes enclose: no pair outside the candidate set can have crossed.
   const Real slack = margin / 2;
   for (std::size_t i = 0; i < particles.size(); ++i) {
-    if (particles.w[i] == 0) continue;
+    // A non-finite prediction is left for the update, which resets and counts it.
+    if (particles.w[i] == 0 || !particles.p[i].allFinite()) continue;
     const Vec3 lo = particles.x[i].cwiseMin(contacts.predicted[i]).array() - slack;
     const Vec3 hi = particles.x[i].cwiseMax(contacts.predicted[i]).array() + slack;
     const Vec3 clamped = particles.p[i].cwiseMax(lo).cwiseMin(hi);
@@ -427,7 +432,9 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
               X0[k] = particles.x[v.id[k]].cast<double>();
               X1[k] = particles.p[v.id[k]].cast<double>();
             }
-            if (contacts.startDistance[i] - motionBound(v, X0, X1) > 0) continue;
+            const double motion = motionBound(v, X0, X1);
+            // Non-finite motion is the update's to reset and count, not the fail-safe's.
+            if (!std::isfinite(motion) || contacts.startDistance[i] - motion > 0) continue;
             contacts.suspect[i] = pairCcd(v.kind, X0, X1, 0.0).hit ? 1 : 0;
           }
         });

@@ -16,8 +16,9 @@ double timedContacts(ContactPool& contacts, const ColliderPool& colliders,
                      PrimitiveContactPool& primitiveContacts, ParticlePool& particles,
                      SolverKind kind) {
   const auto start = std::chrono::steady_clock::now();
-  if (contacts.size() > 0) projectContacts(contacts, colliders, particles, kind);
+  // Collider contacts last: a stack of layers pressed onto the ground ends the round on it.
   if (primitiveContacts.size() > 0) projectPrimitiveContacts(primitiveContacts, particles, kind);
+  if (contacts.size() > 0) projectContacts(contacts, colliders, particles, kind);
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 

@@ -15,7 +15,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
-#include <tbb/parallel_sort.h>
 
 namespace nucleon {
 
@@ -72,6 +71,12 @@ class ExactInt {
   }
 
  private:
+  void copyFrom(const ExactInt& x, bool negative) {
+    std::copy_n(x.words_.begin(), x.size_, words_.begin());
+    size_ = x.size_;
+    negative_ = negative;
+  }
+
   void trim() {
     while (size_ > 0 && words_[size_ - 1] == 0) --size_;
   }
@@ -88,12 +93,11 @@ class ExactInt {
     const bool bNegative = b.negative_ != subtract;
     ExactInt r;
     if (b.size_ == 0) {
-      r = a;
+      r.copyFrom(a, a.negative_);
       return r;
     }
     if (a.size_ == 0) {
-      r = b;
-      r.negative_ = bNegative;
+      r.copyFrom(b, bNegative);
       return r;
     }
     if (a.negative_ == bNegative) {
@@ -130,7 +134,9 @@ class ExactInt {
     return r;
   }
 
-  std::array<std::uint64_t, kCapacity> words_{};
+  // Only the first size_ words are meaningful (and ever read); the rest is left uninitialised,
+  // since filling a thousand bytes per temporary would dominate the cost.
+  std::array<std::uint64_t, kCapacity> words_;
   int size_ = 0;
   bool negative_ = false;
 };
@@ -166,15 +172,59 @@ std::array<ExactInt, N> toScaledIntegers(const std::array<double, N>& x) {
   return r;
 }
 
+// The common case of the exact path: every scaled input below 2^40 (e.g. float coordinates of
+// a scene whose smallest non-zero coordinate is within 2^16 of its largest): differences stay
+// below 2^41, a product of three below 2^123 and a sum of six below 2^126, inside a signed
+// 128-bit integer.
+using Int128 = __int128;
+constexpr int kSmallBits = 40;
+
+template <std::size_t N>
+bool toSmallScaledIntegers(const std::array<double, N>& x, std::array<Int128, N>& r) {
+  std::array<Dyadic, N> parts;
+  int lowest = INT_MAX;
+  for (std::size_t i = 0; i < N; ++i)
+    if (x[i] != 0) {
+      parts[i] = decompose(x[i]);
+      lowest = std::min(lowest, parts[i].exponent);
+    }
+  for (std::size_t i = 0; i < N; ++i) {
+    r[i] = 0;
+    if (x[i] == 0) continue;
+    const int shift = parts[i].exponent - lowest;
+    if (shift + std::bit_width(parts[i].odd) > kSmallBits) return false;
+    r[i] = static_cast<Int128>(parts[i].odd << shift);
+    if (x[i] < 0) r[i] = -r[i];
+  }
+  return true;
+}
+
+int signOf128(Int128 x) {
+  return (x > 0) - (x < 0);
+}
+
 int exactOrient2d(double ax, double ay, double bx, double by, double cx, double cy) {
-  const auto v = toScaledIntegers<6>({ax, ay, bx, by, cx, cy});
+  const std::array<double, 6> in = {ax, ay, bx, by, cx, cy};
+  std::array<Int128, 6> s;
+  if (toSmallScaledIntegers(in, s))
+    return signOf128((s[2] - s[0]) * (s[5] - s[1]) - (s[3] - s[1]) * (s[4] - s[0]));
+  const auto v = toScaledIntegers(in);
   const ExactInt ux = v[2] - v[0], uy = v[3] - v[1], wx = v[4] - v[0], wy = v[5] - v[1];
   return (ux * wy - uy * wx).sign();
 }
 
 int exactOrient3d(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d) {
-  const auto v = toScaledIntegers<12>(
-      {a.x(), a.y(), a.z(), b.x(), b.y(), b.z(), c.x(), c.y(), c.z(), d.x(), d.y(), d.z()});
+  const std::array<double, 12> in = {a.x(), a.y(), a.z(), b.x(), b.y(), b.z(),
+                                     c.x(), c.y(), c.z(), d.x(), d.y(), d.z()};
+  std::array<Int128, 12> s;
+  if (toSmallScaledIntegers(in, s)) {
+    const Int128 ux = s[3] - s[0], uy = s[4] - s[1], uz = s[5] - s[2];
+    const Int128 vx = s[6] - s[0], vy = s[7] - s[1], vz = s[8] - s[2];
+    const Int128 wx = s[9] - s[0], wy = s[10] - s[1], wz = s[11] - s[2];
+    return signOf128(ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) +
+                     uz * (vx * wy - vy * wx));
+  }
+  const auto v = toScaledIntegers(in);
   const ExactInt ux = v[3] - v[0], uy = v[4] - v[1], uz = v[5] - v[2];
   const ExactInt vx = v[6] - v[0], vy = v[7] - v[1], vz = v[8] - v[2];
   const ExactInt wx = v[9] - v[0], wy = v[10] - v[1], wz = v[11] - v[2];
@@ -223,8 +273,7 @@ struct Projection {
 int orient2d(double ax, double ay, double bx, double by, double cx, double cy) {
   // Shewchuk's evaluation: det[a − c; b − c].
   const double acx = ax - cx, bcy = by - cy, acy = ay - cy, bcx = bx - cx;
-  const int quick =
-      signFromTermSigns({signOf(acx) * signOf(bcy), -signOf(acy) * signOf(bcx)});
+  const int quick = signFromTermSigns({signOf(acx) * signOf(bcy), -signOf(acy) * signOf(bcx)});
   if (quick != 2) return quick;
   if (inFilterRange(acx) && inFilterRange(bcy) && inFilterRange(acy) && inFilterRange(bcx)) {
     const double left = acx * bcy, right = acy * bcx;
@@ -241,9 +290,9 @@ int orient3d(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d) {
   const int su[3] = {signOf(u.x()), signOf(u.y()), signOf(u.z())};
   const int sv[3] = {signOf(v.x()), signOf(v.y()), signOf(v.z())};
   const int sw[3] = {signOf(w.x()), signOf(w.y()), signOf(w.z())};
-  const int quick = signFromTermSigns({su[0] * sv[1] * sw[2], -su[0] * sv[2] * sw[1],
-                                       su[1] * sv[2] * sw[0], -su[1] * sv[0] * sw[2],
-                                       su[2] * sv[0] * sw[1], -su[2] * sv[1] * sw[0]});
+  const int quick =
+      signFromTermSigns({su[0] * sv[1] * sw[2], -su[0] * sv[2] * sw[1], su[1] * sv[2] * sw[0],
+                         -su[1] * sv[0] * sw[2], su[2] * sv[0] * sw[1], -su[2] * sv[1] * sw[0]});
   if (quick != 2) return quick;
   bool inRange = true;
   for (int k = 0; k < 3; ++k)
@@ -408,8 +457,7 @@ bool segmentMeetsTriangle(const Vec3d& a, const Vec3d& b, const Triangle3d& t, b
   const int oa = orient3d(t[0], t[1], t[2], a), ob = orient3d(t[0], t[1], t[2], b);
   if (oa * ob > 0) return false;
   if (oa == 0 && ob == 0)
-    return meetInAllProjections(
-        [&](Projection p) { return segmentMeetsTriangle2d(a, b, t, p); });
+    return meetInAllProjections([&](Projection p) { return segmentMeetsTriangle2d(a, b, t, p); });
   // The line ab crosses the plane once, inside [a, b]; the crossing is in the closed triangle iff
   // the line passes no edge on opposite sides (Plücker-style orientations of the line with each
   // edge).
@@ -421,8 +469,7 @@ bool segmentMeetsTriangle(const Vec3d& a, const Vec3d& b, const Triangle3d& t, b
 
 bool anEdgeMeets(const Triangle3d& edgesOf, const Triangle3d& other, bool otherDegenerate) {
   for (int e = 0; e < 3; ++e)
-    if (segmentMeetsTriangle(edgesOf[e], edgesOf[(e + 1) % 3], other, otherDegenerate))
-      return true;
+    if (segmentMeetsTriangle(edgesOf[e], edgesOf[(e + 1) % 3], other, otherDegenerate)) return true;
   return false;
 }
 
@@ -470,12 +517,17 @@ bool overlap(const Box& a, const Box& b) {  // closed boxes; exact comparisons
   return true;
 }
 
-constexpr int kMaxLevels = 32;        // distinct levels kept; finer ones are merged upward
-constexpr int kCellBits = 19;         // cell coordinates kept in a key (they wrap around)
+constexpr int kMaxLevels = 32;         // distinct levels kept; finer ones are merged upward
+constexpr int kCellBits = 19;          // cell coordinates kept in a key (they wrap around)
 constexpr double kCellClamp = 0x1p62;  // cell indices are clamped to ±2^62 (they stay int64)
 
-std::int64_t cellIndex(double x, int level) {
-  const double scaled = std::floor(std::ldexp(x, -level));
+// Levels are kept in [−1000, 1024] (a coarser level is always allowed), so 2^−ℓ is a finite
+// non-zero double and x · 2^−ℓ is x scaled exactly, or rounded monotonically where it leaves the
+// normal range, which keeps cell ranges consistent between triangles.
+constexpr int kFinestLevel = -1000;
+
+std::int64_t cellIndex(double x, double inverseCellSize) {
+  const double scaled = std::floor(x * inverseCellSize);
   return static_cast<std::int64_t>(std::clamp(scaled, -kCellClamp, kCellClamp));
 }
 
@@ -500,14 +552,29 @@ int levelFor(double extent) {
 
 struct Entry {
   std::uint64_t key;
-  std::uint32_t triangle;
-  std::uint32_t visitor;  // 0: owner (its own level), 1: visitor from a finer level
-  bool operator<(const Entry& o) const {
-    if (key != o.key) return key < o.key;
-    if (visitor != o.visitor) return visitor < o.visitor;
-    return triangle < o.triangle;
-  }
+  std::uint64_t order;  // visitor << 32 | triangle; visitor: entered from a finer level
+  static constexpr std::uint64_t kVisitor = std::uint64_t{1} << 32;
+  std::uint32_t triangle() const { return static_cast<std::uint32_t>(order); }
+  bool visitor() const { return order >= kVisitor; }
 };
+
+// Least-significant-digit radix sort on the key (stable; 11-bit digits, a pass skipped where
+// every key has the same digit): linear time, where comparison sorts dominated the broad phase.
+void sortByKey(std::vector<Entry>& entries, std::vector<Entry>& scratch) {
+  constexpr int kDigitBits = 11;
+  constexpr std::size_t kBuckets = std::size_t{1} << kDigitBits;
+  scratch.resize(entries.size());
+  std::vector<std::size_t> start(kBuckets);
+  for (int shift = 0; shift < 64; shift += kDigitBits) {
+    std::fill(start.begin(), start.end(), 0);
+    for (const Entry& e : entries) ++start[(e.key >> shift) & (kBuckets - 1)];
+    if (std::find(start.begin(), start.end(), entries.size()) != start.end()) continue;
+    std::size_t at = 0;
+    for (std::size_t& b : start) at += std::exchange(b, at);
+    for (const Entry& e : entries) scratch[start[(e.key >> shift) & (kBuckets - 1)]++] = e;
+    entries.swap(scratch);
+  }
+}
 
 struct Candidate {
   Triangle3d v;
@@ -515,6 +582,13 @@ struct Candidate {
   std::array<Index, 3> indices;
   int axis = -1;  // projectionAxis, −1: degenerate
   int level = 0;  // level index (into the distinct levels), not the exponent
+};
+
+struct Workspace {
+  std::vector<Candidate> candidates;
+  std::vector<int> exponent;
+  std::vector<std::size_t> offset, runStart;
+  std::vector<Entry> entries, scratch;
 };
 
 bool shareVertex(const std::array<Index, 3>& a, const std::array<Index, 3>& b) {
@@ -533,9 +607,25 @@ std::size_t countTriangleIntersections(std::span<const std::array<Index, 3>> tri
         throw std::out_of_range("countTriangleIntersections: vertex index out of range");
 
   // Candidates: finite triangles with their boxes and exponent levels.
-  std::vector<Candidate> candidates;
-  std::vector<int> exponent;  // per candidate; INT_MIN for a point (zero extent)
-  candidates.reserve(triangles.size());
+  // The buffers outlive the call, one set per calling thread: the count runs every frame, and
+  // fresh multi-megabyte buffers would cost page faults every time, a large part of the total.
+  // A thread that starts another count while waiting inside this one (task stealing) gets fresh
+  // buffers instead.
+  thread_local Workspace cached;
+  thread_local bool cachedInUse = false;
+  Workspace fresh;
+  const bool useCached = !cachedInUse;
+  Workspace& workspace = useCached ? cached : fresh;
+  struct Claim {
+    bool active;
+    ~Claim() {
+      if (active) cachedInUse = false;
+    }
+  } claim{useCached};
+  if (useCached) cachedInUse = true;
+  std::vector<Candidate>& candidates = workspace.candidates;
+  std::vector<int>& exponent = workspace.exponent;  // INT_MIN for a point (zero extent)
+  candidates.clear();
   for (const auto& t : triangles) {
     const Vec3d a = positions[t[0]].cast<double>(), b = positions[t[1]].cast<double>(),
                 c = positions[t[2]].cast<double>();
@@ -554,7 +644,7 @@ std::size_t countTriangleIntersections(std::span<const std::array<Index, 3>> tri
       Candidate& k = candidates[i];
       k.axis = projectionAxis(k.v);
       const double extent = (k.box.hi - k.box.lo).maxCoeff();
-      exponent[i] = extent > 0 ? levelFor(extent) : INT_MIN;
+      exponent[i] = extent > 0 ? std::max(levelFor(extent), kFinestLevel) : INT_MIN;
     }
   });
 
@@ -573,74 +663,98 @@ std::size_t countTriangleIntersections(std::span<const std::array<Index, 3>> tri
     candidates[i].level =
         static_cast<int>(std::lower_bound(levels.begin(), levels.end(), e) - levels.begin());
   }
+  // Every level in the list has owners.
   const int levelCount = static_cast<int>(levels.size());
-  std::vector<char> levelUsed(levelCount, 0);
-  for (const Candidate& k : candidates) levelUsed[k.level] = 1;  // all used, after the merge
+  std::vector<double> inverseCellSize(levelCount);
+  for (int l = 0; l < levelCount; ++l) inverseCellSize[l] = std::ldexp(1.0, -levels[l]);
 
   // Cell range of a box at a level.
   auto cellRange = [&](const Box& box, int levelIndex, std::array<std::int64_t, 3>& lo,
                        std::array<std::int64_t, 3>& hi) {
     for (int a = 0; a < 3; ++a) {
-      lo[a] = cellIndex(box.lo[a], levels[levelIndex]);
-      hi[a] = cellIndex(box.hi[a], levels[levelIndex]);
+      lo[a] = cellIndex(box.lo[a], inverseCellSize[levelIndex]);
+      hi[a] = cellIndex(box.hi[a], inverseCellSize[levelIndex]);
     }
   };
   auto cellsAt = [&](const Box& box, int levelIndex) {
     std::array<std::int64_t, 3> lo, hi;
     cellRange(box, levelIndex, lo, hi);
-    return static_cast<std::size_t>((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1));
+    return static_cast<std::size_t>((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) *
+                                    (hi[2] - lo[2] + 1));
   };
 
   // Entries: count, offsets, fill (each triangle writes its own slots).
-  std::vector<std::size_t> offset(n + 1, 0);
+  std::vector<std::size_t>& offset = workspace.offset;
+  offset.assign(n + 1, 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
       std::size_t count = 0;
-      for (int l = candidates[i].level; l < levelCount; ++l)
-        if (levelUsed[l]) count += cellsAt(candidates[i].box, l);
+      for (int l = candidates[i].level; l < levelCount; ++l) count += cellsAt(candidates[i].box, l);
       offset[i + 1] = count;
     }
   });
   for (std::size_t i = 0; i < n; ++i) offset[i + 1] += offset[i];
-  std::vector<Entry> entries(offset[n]);
+  std::vector<Entry>& entries = workspace.entries;
+  entries.resize(offset[n]);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
       std::size_t at = offset[i];
       const Candidate& k = candidates[i];
       for (int l = k.level; l < levelCount; ++l) {
-        if (!levelUsed[l]) continue;
         std::array<std::int64_t, 3> lo, hi;
         cellRange(k.box, l, lo, hi);
         for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
           for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
             for (std::int64_t z = lo[2]; z <= hi[2]; ++z)
-              entries[at++] = {cellKey(l, x, y, z), static_cast<std::uint32_t>(i),
-                               l == k.level ? 0u : 1u};
+              entries[at++] = {cellKey(l, x, y, z), (l == k.level ? 0 : Entry::kVisitor) |
+                                                        static_cast<std::uint32_t>(i)};
       }
     }
   });
-  tbb::parallel_sort(entries.begin(), entries.end());
+  sortByKey(entries, workspace.scratch);
 
   // Runs of equal keys.
-  std::vector<std::size_t> runStart;
+  std::vector<std::size_t>& runStart = workspace.runStart;
+  runStart.clear();
   for (std::size_t e = 0; e < entries.size(); ++e)
     if (e == 0 || entries[e].key != entries[e - 1].key) runStart.push_back(e);
   runStart.push_back(entries.size());
 
-  auto countInRun = [&](std::size_t begin, std::size_t end) {
+  // Within a cell, a sweep along x over the boxes (sorted by their lower x) finds the pairs whose
+  // boxes overlap without looking at every pair of the cell.
+  struct Swept {
+    Box box;
+    std::uint32_t candidate;
+    bool visitor;
+  };
+  auto countInRun = [&](std::size_t begin, std::size_t end, std::vector<Swept>& swept) {
+    if (end - begin < 2 || std::none_of(entries.begin() + begin, entries.begin() + end,
+                                        [](const Entry& e) { return !e.visitor(); }))
+      return std::size_t{0};  // visitors alone: no pair to take
+    const std::uint64_t key = entries[begin].key;
+    const int level = static_cast<int>(key >> (3 * kCellBits));
+    swept.clear();
+    for (std::size_t e = begin; e < end; ++e)
+      swept.push_back(
+          {candidates[entries[e].triangle()].box, entries[e].triangle(), entries[e].visitor()});
+    std::sort(swept.begin(), swept.end(), [](const Swept& a, const Swept& b) {
+      return a.box.lo.x() != b.box.lo.x() ? a.box.lo.x() < b.box.lo.x() : a.candidate < b.candidate;
+    });
     std::size_t count = 0;
-    for (std::size_t e = begin; e < end && entries[e].visitor == 0; ++e) {
-      const Candidate& a = candidates[entries[e].triangle];
-      std::array<std::int64_t, 3> aLo, aHi;
-      cellRange(a.box, a.level, aLo, aHi);
-      for (std::size_t f = e + 1; f < end; ++f) {
-        const Candidate& b = candidates[entries[f].triangle];
-        if (!overlap(a.box, b.box) || shareVertex(a.indices, b.indices)) continue;
+    for (std::size_t e = 0; e < swept.size(); ++e) {
+      const Swept& sa = swept[e];
+      for (std::size_t f = e + 1; f < swept.size() && swept[f].box.lo.x() <= sa.box.hi.x(); ++f) {
+        const Swept& sb = swept[f];
+        if ((sa.visitor && sb.visitor) || !overlap(sa.box, sb.box)) continue;
+        const Candidate& a = candidates[sa.candidate];
+        const Candidate& b = candidates[sb.candidate];
+        if (shareVertex(a.indices, b.indices)) continue;
         // Count the pair only in the lowest corner of the common cell range at this level.
-        std::array<std::int64_t, 3> bLo, bHi;
-        cellRange(b.box, a.level, bLo, bHi);
-        if (cellKey(a.level, std::max(aLo[0], bLo[0]), std::max(aLo[1], bLo[1]),
-                    std::max(aLo[2], bLo[2])) != entries[e].key)
+        std::array<std::int64_t, 3> aLo, aHi, bLo, bHi;
+        cellRange(a.box, level, aLo, aHi);
+        cellRange(b.box, level, bLo, bHi);
+        if (cellKey(level, std::max(aLo[0], bLo[0]), std::max(aLo[1], bLo[1]),
+                    std::max(aLo[2], bLo[2])) != key)
           continue;
         if (classifiedTrianglesIntersect(a.v, a.axis, b.v, b.axis)) ++count;
       }
@@ -650,8 +764,9 @@ std::size_t countTriangleIntersections(std::span<const std::array<Index, 3>> tri
   return tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, runStart.size() - 1, 16), std::size_t{0},
       [&](const tbb::blocked_range<std::size_t>& r, std::size_t sum) {
+        std::vector<Swept> swept;
         for (std::size_t run = r.begin(); run != r.end(); ++run)
-          sum += countInRun(runStart[run], runStart[run + 1]);
+          sum += countInRun(runStart[run], runStart[run + 1], swept);
         return sum;
       },
       [](std::size_t x, std::size_t y) { return x + y; });

@@ -50,8 +50,10 @@ bool trianglesIntersectByEdges(const Triangle3d& t1, const Triangle3d& t2);
 // non-finite vertex are left out (they intersect nothing); an index out of range throws
 // std::out_of_range. Broad phase: a hierarchical grid of power-of-two cells whose size follows
 // each triangle's own bounding box (no global cell size, so large and small triangles mix
-// without quadratic blow-up), in parallel with oneTBB in the calling task arena; the count does
-// not depend on the thread count.
+// without quadratic blow-up) and a sweep along x inside each cell, over exact (unrounded)
+// bounding boxes compared as closed intervals; in parallel with oneTBB in the calling task
+// arena, and the count does not depend on the thread count. Allocates (it is a measure, not a
+// step stage), reusing per-thread buffers between calls.
 std::size_t countTriangleIntersections(std::span<const std::array<Index, 3>> triangles,
                                        std::span<const Vec3> positions);
 

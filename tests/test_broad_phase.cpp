@@ -85,7 +85,8 @@ Scene randomScene(unsigned seed) {
         if (random() % 2) std::swap(tri[1], tri[2]);
         addTriangle(s.primitives, tri, Real(radius(random)), o);
         for (int k = 0; k < 3; ++k) {
-          const Index u = std::min(tri[k], tri[(k + 1) % 3]), v = std::max(tri[k], tri[(k + 1) % 3]);
+          const Index u = std::min(tri[k], tri[(k + 1) % 3]),
+                      v = std::max(tri[k], tri[(k + 1) % 3]);
           edges.insert({u, v});
         }
       }
@@ -128,8 +129,8 @@ Scene foldedCloth(int n, unsigned seed) {
     const Real folded = layer % 2 == 0 ? t : 1 - t;
     const Vec3 x(folded / 3, Real(layer) * gap, rest.z());
     s.x.push_back(x);
-    s.p.push_back(x + Vec3(Real(jitter(random)), -edge / 3 + Real(jitter(random)),
-                           Real(jitter(random))));
+    s.p.push_back(
+        x + Vec3(Real(jitter(random)), -edge / 3 + Real(jitter(random)), Real(jitter(random))));
     s.w.push_back(v < std::size_t(n) ? Real(0) : Real(1));
   }
   std::set<std::pair<Index, Index>> edges;
@@ -152,8 +153,7 @@ void expectSamePairs(const CandidatePairs& a, const CandidatePairs& b) {
 }
 
 std::vector<Index> particlesOf(const CollisionPrimitives& c, PairKind kind, bool first, Index i) {
-  const bool point = first ? kind != PairKind::EdgeEdge
-                           : kind == PairKind::VertexVertex;
+  const bool point = first ? kind != PairKind::EdgeEdge : kind == PairKind::VertexVertex;
   const bool triangle = !first && kind == PairKind::VertexFace;
   if (point) return {c.pointParticle[i]};
   if (triangle) return {c.triangleParticles[i].begin(), c.triangleParticles[i].end()};
@@ -172,13 +172,19 @@ void expectPairRules(const Scene& s, const CandidatePairs& pairs) {
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     const PairKind kind = pairs.kind[k];
     const Index a = pairs.first[k], b = pairs.second[k];
-    if (k > 0)
+    if (k > 0) {
       ASSERT_LT(std::make_tuple(pairs.kind[k - 1], pairs.first[k - 1], pairs.second[k - 1]),
                 std::make_tuple(kind, a, b));
-    if (kind == PairKind::EdgeEdge || kind == PairKind::VertexVertex) ASSERT_LT(a, b);
-    if (kind == PairKind::VertexEdge || kind == PairKind::VertexVertex)
+    }
+    if (kind == PairKind::EdgeEdge || kind == PairKind::VertexVertex) {
+      ASSERT_LT(a, b);
+    }
+    if (kind == PairKind::VertexEdge || kind == PairKind::VertexVertex) {
       ASSERT_TRUE(c.pointIsolated[a]);
-    if (kind == PairKind::VertexVertex) ASSERT_TRUE(c.pointIsolated[b]);
+    }
+    if (kind == PairKind::VertexVertex) {
+      ASSERT_TRUE(c.pointIsolated[b]);
+    }
     const auto pa = particlesOf(c, kind, true, a), pb = particlesOf(c, kind, false, b);
     bool free = false;
     for (Index i : pa) {
@@ -231,8 +237,8 @@ TEST(BroadPhase, RandomScenesMatchTheBruteForce) {
     expectPairRules(s, pairs);
     EXPECT_EQ(stats.pairs, expected.pairs);
     EXPECT_EQ(stats.skippedPrimitives, 0u);
-    for (PairKind kind : {PairKind::VertexFace, PairKind::EdgeEdge, PairKind::VertexEdge,
-                          PairKind::VertexVertex}) {
+    for (PairKind kind :
+         {PairKind::VertexFace, PairKind::EdgeEdge, PairKind::VertexEdge, PairKind::VertexVertex}) {
       EXPECT_GT(countKind(pairs, kind), 0u) << "kind " << int(kind);
       EXPECT_EQ(countKind(pairs, kind), stats.pairs[std::size_t(kind)]);
     }

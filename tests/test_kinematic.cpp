@@ -438,7 +438,7 @@ TEST(KinematicScene, NamesTheJsonPathOfAnError) {
             "test.json: objects[0].motion.keyframes[1].axis: must not be zero");
   EXPECT_EQ(sceneError(motionScene("\"degrees\": 90", "\"degres\": 90")),
             "test.json: objects[0].motion.keyframes[1]: unknown key 'degres'");
-  EXPECT_EQ(sceneError(motionScene("\"along\": [1, 0, 0]", "\"along\": [1, 1, 0]")),
+  EXPECT_EQ(sceneError(motionScene("\"along\": [1, 0, 0]", "\"along\": [1, 0, 1]")),
             "test.json: objects[0].motion.bend.along: must be perpendicular to 'axis'");
   EXPECT_EQ(sceneError(motionScene("\"frequency\": 2", "\"frequency\": -2")),
             "test.json: objects[0].motion.bend.frequency: must be in [1e-09, 1e+06], got -2");

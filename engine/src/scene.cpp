@@ -345,7 +345,8 @@ SceneObject readObject(const Reader& o, const std::string& folder) {
     const Reader m = o.child("material");
     m.allowOnly({"mass", "stretch_compliance", "compression_compliance", "bend_compliance",
                  "shear_compliance", "twist_compliance", "volume_compliance", "damping",
-                 "thickness", "tethers"});
+                 "thickness", "tethers", "collide", "self_collision", "friction",
+                 "static_friction", "restitution", "stickiness"});
     Material& mat = out.def.material;
     mat.mass = static_cast<Real>(m.number("mass", mat.mass, 1e-9, 1e9));
     mat.stretchCompliance =
@@ -363,6 +364,30 @@ SceneObject readObject(const Reader& o, const std::string& folder) {
         static_cast<Real>(m.number("volume_compliance", mat.volumeCompliance, 0, 1e6));
     mat.damping = static_cast<Real>(m.number("damping", mat.damping, 0, 1e3));
     mat.tethers = m.boolean("tethers", mat.tethers);
+    mat.selfCollision = m.boolean("self_collision", mat.selfCollision);
+    mat.friction = static_cast<Real>(m.number("friction", mat.friction, 0, 1e3));
+    // μ_s defaults to at least μ_k, as for colliders.
+    mat.staticFriction = static_cast<Real>(
+        m.number("static_friction", std::max(mat.staticFriction, mat.friction), 0, 1e3));
+    mat.restitution = static_cast<Real>(m.number("restitution", mat.restitution, 0, 1));
+    mat.stickiness = static_cast<Real>(m.number("stickiness", mat.stickiness, 0, 1e3));
+    if (m.has("collide")) {
+      // Which primitives collide: a list of "vertices", "edges", "faces" (empty: none).
+      const Json& list = m.raw("collide");
+      if (!list.is_array()) m.fail(m.at("collide"), "expected a list of vertices, edges, faces");
+      mat.collideVertices = mat.collideEdges = mat.collideFaces = false;
+      for (const Json& item : list) {
+        const std::string name = item.is_string() ? item.get<std::string>() : "";
+        if (name == "vertices")
+          mat.collideVertices = true;
+        else if (name == "edges")
+          mat.collideEdges = true;
+        else if (name == "faces")
+          mat.collideFaces = true;
+        else
+          m.fail(m.at("collide"), "expected vertices, edges or faces, got " + item.dump());
+      }
+    }
   }
   if (o.has("schedule")) out.def.schedule = o.schedule("schedule");
   if (o.has("pins")) {

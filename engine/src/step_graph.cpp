@@ -3,9 +3,9 @@
 #include <chrono>
 
 #include "engine/src/world_state.h"
+#include "systems/broad_phase.h"
 #include "systems/integrate.h"
 #include "systems/kinematic_motion.h"
-#include "systems/broad_phase.h"
 #include "systems/particle_contacts.h"
 #include "systems/primitive_contacts.h"
 #include "systems/solve_constraints.h"
@@ -42,7 +42,8 @@ constexpr std::array<StageDeclaration, kStageCount> kStages = {{
     // Also restitution of the primitive contacts, after the velocity update.
     {"update", kPositions | kVelocities | kPredicted | kPrimitiveContacts,
      kPositions | kVelocities | kPredicted | kRecoveries | kStageProfile},
-    // Shares `animate`'s profile entry; the two are ordered through update.
+    // Shares `animate`'s profile entry without a race: it reads the targets animate writes, so it
+    // always runs after it.
     {"finish animation", kAnimation, kPositions | kPredicted | kStageProfile},
 }};
 
@@ -120,8 +121,9 @@ void StepGraph::runStage(int stage) {
         findCandidatePairs(s.candidates, s.bvh, s.primitives, s.particles.x, s.particles.p,
                            s.particles.w, kPrimitiveContactMargin);
       });
-      profile.narrowPhase += timed(
-          [&] { detectPrimitiveContacts(s.primitiveContacts, s.candidates, s.primitives, s.particles); });
+      profile.narrowPhase += timed([&] {
+        detectPrimitiveContacts(s.primitiveContacts, s.candidates, s.primitives, s.particles);
+      });
       report.candidatePairs += s.candidates.size();
       report.contacts += s.primitiveContacts.size();
       break;

@@ -84,13 +84,16 @@ void validateMotion(const ObjectDef& def, ObjectKind kind, const std::string& wh
   require(kind == ObjectKind::Collider, what + ": only colliders can have a motion");
   require(def.velocity == Vec3::Zero(),
           what + ": a collider with a motion takes no velocity (the motion sets it)");
-  require(m.pivot.allFinite(), what + ": motion pivot must be finite");
+  // Bounded like the other colliders' coordinates, so that posed positions stay finite in Real.
+  require(m.pivot.allFinite() && m.pivot.cwiseAbs().maxCoeff() < 1e9,
+          what + ": motion pivot must be finite and within 1e9 m");
   require(!m.loop || m.keyframes.size() >= 2, what + ": a looping motion needs two keyframes");
   for (std::size_t k = 0; k < m.keyframes.size(); ++k) {
     const Keyframe& f = m.keyframes[k];
     const std::string key = what + ": keyframe " + std::to_string(k);
     require(std::isfinite(f.time), key + " time must be finite");
-    require(f.translation.allFinite(), key + " translation must be finite");
+    require(f.translation.allFinite() && f.translation.cwiseAbs().maxCoeff() < 1e9,
+            key + " translation must be finite and within 1e9 m");
     require(std::isfinite(f.angle), key + " angle must be finite");
     require(f.axis.allFinite() && direction(f.axis) != Vec3d::Zero(),
             key + " axis must be finite and not zero");
@@ -564,7 +567,8 @@ Measures World::measure() const {
   // Touching: within 1 mm of a contact surface.
   m.contacts = countTouchingParticles(s.colliders, s.particles, Real(1e-3));
   // Every object's surface in global particle indices, all objects together: pairs within one
-  // object (self-intersection) and across objects count alike.
+  // object (self-intersection) and across objects count alike. Counted in the world's arena when
+  // it has one, so that setThreads bounds the measure too.
   std::vector<std::array<Index, 3>> surfaces;
   for (const ObjectRecord& o : s.objects)
     for (const auto& t : o.surface)
