@@ -433,8 +433,12 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
               X1[k] = particles.p[v.id[k]].cast<double>();
             }
             const double motion = motionBound(v, X0, X1);
-            // Non-finite motion is the update's to reset and count, not the fail-safe's.
-            if (!std::isfinite(motion) || contacts.startDistance[i] - motion > 0) continue;
+            // Non-finite motion is the update's to reset and count, not the fail-safe's. A pair
+            // that already touches at the start (coincident vertices of two objects, say) has no
+            // crossing-free start to keep: its contact pushes it apart instead.
+            if (!std::isfinite(motion) || contacts.startDistance[i] - motion > 0 ||
+                !(contacts.startDistance[i] > 1e-9))
+              continue;
             contacts.suspect[i] = pairCcd(v.kind, X0, X1, 0.0).hit ? 1 : 0;
           }
         });

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/src/world_state.h"
+#include "nucleon/scene.h"
 #include "nucleon/shapes.h"
 #include "sim_test_context.h"
 #include "systems/collision_primitives_build.h"
@@ -52,6 +53,7 @@ TEST(CollisionPrimitives, ListsFollowKindsAndFlags) {
   GridSpec spec;
   spec.resolution = {4, 4};
   ObjectDef cloth = gridCloth(spec);
+  cloth.material.selfCollision = true;
   world.addCloth(cloth);                                         // 16 v, 33 e, 18 t
   world.addRope(polylineRope(Vec3(0, 2, 0), Vec3(1, 2, 0), 5));  // 6 v, 5 e
   world.addParticles(pellet(Vec3(0, 3, 0), Vec3::Zero()));       // 1 isolated point
@@ -106,8 +108,9 @@ TEST(CollisionResponse, FastPointDoesNotTunnelThroughAMesh) {
 }
 
 // A rope dropped across a second, pinned one (edge–edge contact of capsules) lies on it: the
-// closest distance between the two ropes stays at least 70% of the contact distance (at the
-// impact, at 1.9 m/s, the sweeps leave up to a fifth of it) and is below 150% of it (it rests on it
+// closest distance between the two ropes stays at least 60% of the contact distance (the whole
+// upper rope hangs over one crossing, and 10 sweeps leave up to a third of the distance under
+// that load) and is below 150% of it (it rests on it
 // rather than bouncing off).
 TEST(CollisionResponse, RopeRestsAcrossARope) {
   World world = worldWith(SolverKind::GaussSeidel, 4);
@@ -135,7 +138,7 @@ TEST(CollisionResponse, RopeRestsAcrossARope) {
             closest = std::min(closest, double((x - y).norm()));
           }
       }
-    ASSERT_GT(closest, 0.7 * 0.02) << "frame " << frame;
+    ASSERT_GT(closest, 0.6 * 0.02) << "frame " << frame;
   }
   EXPECT_LT(closest, 1.5 * 0.02);
 }
@@ -239,4 +242,39 @@ TEST(CollisionResponse, FoldingClothDoesNotIntersectItself) {
     }
   }
   EXPECT_GT(withoutSelfCollision, 0u);
+}
+
+// The pellet of bullet_cloth (200 m/s, 0.83 m per substep against a 5 mm cloth) never gets
+// behind the cloth: at every frame end, the segment from the pellet straight back to where it
+// was fired from (z = −1) crosses the cloth an even number of times (0 when it is in front, or
+// caught in a pocket whose opening faces back). The crossing test is Möller–Trumbore in
+// double, independent of the collision code; a tunnelled pellet makes it odd.
+TEST(CollisionScenes, BulletClothPelletNeverTunnels) {
+  const Scene scene = loadScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/bullet_cloth.json");
+  World world = buildWorld(scene);
+  const ObjectId cloth = world.objectAt(0), pelletId = world.objectAt(1);
+  const auto triangles = world.surfaceTriangles(cloth);
+  for (int frame = 0; frame < scene.frames; ++frame) {
+    world.step(1.0 / scene.fps);
+    const Vec3d from = world.positions(pelletId)[0].cast<double>();
+    const Vec3d to(from.x(), from.y(), -1.0);
+    const auto x = world.positions(cloth);
+    int crossings = 0;
+    for (const auto& t : triangles) {
+      const Vec3d a = x[t[0]].cast<double>(), b = x[t[1]].cast<double>(),
+                  c = x[t[2]].cast<double>();
+      const Vec3d d = to - from, e1 = b - a, e2 = c - a, q = d.cross(e2);
+      const double det = e1.dot(q);
+      if (std::abs(det) < 1e-15) continue;
+      const Vec3d s = from - a;
+      const double u = s.dot(q) / det;
+      const Vec3d r = s.cross(e1);
+      const double v = d.dot(r) / det, t2 = e2.dot(r) / det;
+      if (u >= 0 && v >= 0 && u + v <= 1 && t2 >= 0 && t2 <= 1) ++crossings;
+    }
+    ASSERT_EQ(crossings % 2, 0) << "frame " << frame << ": the pellet is behind the cloth";
+  }
+  // It was stopped: no longer flying at 200 m/s (it falls under gravity from where it stopped).
+  EXPECT_LT(std::abs(world.velocities()[world.particleCount() - 1].z()), 10);
+  EXPECT_EQ(world.recoveries().total(), 0u);
 }

@@ -117,6 +117,8 @@ TEST(Schedule, AnObjectWithoutStretchSweepsFallsFreelyWhileTheOtherHolds) {
     if (i == 1) rope.schedule = schedule({{ConstraintFamily::Stretch, 0}});
     world.addRope(rope);
   }
+  // The ropes touch where one ends and the other starts; this is about schedules, not contact.
+  world.excludeCollisions(world.objectAt(0), world.objectAt(1));
   const int steps = 30;
   const double h = 1.0 / 60;
   test::simulate(world, steps, h);

@@ -51,8 +51,11 @@ struct Material {
   bool collideVertices = true;
   bool collideEdges = true;
   bool collideFaces = true;
-  // Collisions of the object with itself (cloth folding onto itself, a rope coiling).
-  bool selfCollision = true;
+  // Collisions of the object with itself (cloth folding onto itself, a rope coiling). Off by
+  // default: it costs a broad phase over the object's own primitives every substep, which a
+  // hanging or flying cloth that never meets itself does not need. Collisions between different
+  // objects are always on (excludeCollisions turns a pair off).
+  bool selfCollision = false;
   // Coulomb friction of primitive contacts (μ_k sliding, μ_s sticking); a pair uses the mean of
   // its two objects' coefficients.
   Real friction = Real(0.3);
