@@ -2,7 +2,7 @@
 // structure of arrays: unilateral constraints solved with the other families. Per-substep
 // lifetime: refilled from the candidate pairs every substep into storage that keeps its capacity.
 //
-// Every contact is the same linear form over up to four particles (ARCHITECTURE.md §5):
+// Every contact is the same linear form over up to four particles (ARCHITECTURE.md §4):
 //   C(p) = n · Σ_k c_k p_k − distance ≥ 0
 // with the fixed unit normal n, pointing from the second primitive to the first, and coefficients
 // c_k: the first primitive's interpolation weights with a plus sign, the second's with a minus sign

@@ -38,7 +38,7 @@ struct WorldState {
   ColliderPool colliders;       // static lifetime: rebuilt when a collider is added or changed
   ContactPool contacts;         // per-substep lifetime: refilled by contact detection every substep
   SweepPlan plan;               // from solver.schedule and the objects' schedules
-  // Collisions between primitives (ARCHITECTURE.md §5): the primitive lists (static, rebuilt with
+  // Collisions between primitives (ARCHITECTURE.md §4): the primitive lists (static, rebuilt with
   // the derived tables), the object pairs the API excluded, the broad phase's BVH and candidate
   // pairs and the primitive contacts (per substep), and what the collision stages did.
   CollisionPrimitives primitives;

@@ -43,7 +43,7 @@ struct Recoveries {
 };
 
 // What the collision stages did since the world was created: pairs and contacts summed over
-// substeps, the displacement bound and the crossing fail-safe's work (ARCHITECTURE.md §5)
+// substeps, the displacement bound and the crossing fail-safe's work (ARCHITECTURE.md §4)
 // (their time is StepProfile's broadPhase, narrowPhase and collisions).
 struct CollisionReport {
   std::uint64_t candidatePairs = 0;    // broad-phase pairs, summed over substeps
