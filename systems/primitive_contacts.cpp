@@ -5,6 +5,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/parallel_scan.h>
 
 #include "systems/ccd.h"
@@ -404,17 +405,23 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
   // Every particle ends within margin/2 of the bounds of its predicted motion, which the broad
   // phase's inflated boxes enclose: no pair outside the candidate set can have crossed.
   const Real slack = margin / 2;
-  for (std::size_t i = 0; i < particles.size(); ++i) {
-    // A non-finite prediction is left for the update, which resets and counts it.
-    if (particles.w[i] == 0 || !particles.p[i].allFinite()) continue;
-    const Vec3 lo = particles.x[i].cwiseMin(contacts.predicted[i]).array() - slack;
-    const Vec3 hi = particles.x[i].cwiseMax(contacts.predicted[i]).array() + slack;
-    const Vec3 clamped = particles.p[i].cwiseMax(lo).cwiseMin(hi);
-    if (clamped != particles.p[i]) {
-      particles.p[i] = clamped;
-      ++report.clamped;
-    }
-  }
+  report.clamped = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, particles.size(), kParticleGrain), std::size_t{0},
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t clamped) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          // A non-finite prediction is left for the update, which resets and counts it.
+          if (particles.w[i] == 0 || !particles.p[i].allFinite()) continue;
+          const Vec3 lo = particles.x[i].cwiseMin(contacts.predicted[i]).array() - slack;
+          const Vec3 hi = particles.x[i].cwiseMax(contacts.predicted[i]).array() + slack;
+          const Vec3 inside = particles.p[i].cwiseMax(lo).cwiseMin(hi);
+          if (inside != particles.p[i]) {
+            particles.p[i] = inside;
+            ++clamped;
+          }
+        }
+        return clamped;
+      },
+      std::plus<>());
   const std::size_t n = candidates.size();
   for (int round = 0; round < kMaxFailsafeRounds; ++round) {
     // Pairs whose start distance the final motion could have used up, tested by CCD at zero

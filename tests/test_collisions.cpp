@@ -11,6 +11,7 @@
 #include "nucleon/shapes.h"
 #include "sim_test_context.h"
 #include "systems/collision_primitives_build.h"
+#include "systems/primitive_distance.h"
 
 using namespace nucleon;
 
@@ -107,13 +108,14 @@ TEST(CollisionResponse, FastPointDoesNotTunnelThroughAMesh) {
   }
 }
 
-// A rope dropped across a second, pinned one (edge–edge contact of capsules) lies on it: the
-// closest distance between the two ropes stays at least 60% of the contact distance (the whole
-// upper rope hangs over one crossing, and 10 sweeps leave up to a third of the distance under
-// that load) and is below 150% of it (it rests on it
-// rather than bouncing off).
+// A rope dropped across a second, pinned one (edge–edge contact of capsules) lies on it. The
+// closest distance between the two ropes stays above 90% of the contact distance through the
+// impact at 1.9 m/s and ends within 5% of it (resting on it, not bouncing off). With 16 substeps:
+// at 4 the impact leaves up to a third of the distance, whatever the sweep count (40 sweeps do
+// no better than 10), because segments next to the first contact come within reach only after
+// the sweeps have moved them, and get their contact one substep later.
 TEST(CollisionResponse, RopeRestsAcrossARope) {
-  World world = worldWith(SolverKind::GaussSeidel, 4);
+  World world = worldWith(SolverKind::GaussSeidel, 16);
   ObjectDef lower = polylineRope(Vec3(-1, 1, 0), Vec3(1, 1, 0), 20);
   lower.pins = {0, 20};
   lower.material.thickness = Real(0.01);
@@ -130,17 +132,15 @@ TEST(CollisionResponse, RopeRestsAcrossARope) {
     const auto pb = world.positions(b);
     for (std::size_t i = 0; i + 1 < pa.size(); ++i)
       for (std::size_t j = 0; j + 1 < pb.size(); ++j) {
-        // Sampled segment distance (fine enough at 11 samples for this check).
-        for (int s = 0; s <= 10; ++s)
-          for (int t = 0; t <= 10; ++t) {
-            const Vec3 x = pa[i] + (pa[i + 1] - pa[i]) * Real(s / 10.0);
-            const Vec3 y = pb[j] + (pb[j + 1] - pb[j]) * Real(t / 10.0);
-            closest = std::min(closest, double((x - y).norm()));
-          }
+        // Exact segment–segment distance (Ericson's closest points).
+        const Vec3d p0 = pa[i].cast<double>(), p1 = pa[i + 1].cast<double>();
+        const Vec3d q0 = pb[j].cast<double>(), q1 = pb[j + 1].cast<double>();
+        const auto st = closestBetweenSegments(p0, p1, q0, q1);
+        closest = std::min(closest, ((p0 + st[0] * (p1 - p0)) - (q0 + st[1] * (q1 - q0))).norm());
       }
-    ASSERT_GT(closest, 0.6 * 0.02) << "frame " << frame;
+    ASSERT_GT(closest, 0.9 * 0.02) << "frame " << frame;
   }
-  EXPECT_LT(closest, 1.5 * 0.02);
+  EXPECT_NEAR(closest, 0.02, 0.05 * 0.02);
 }
 
 // Coulomb friction of primitive contacts: on a slab tilted to 20° (tan = 0.364) a pellet with
