@@ -1,6 +1,7 @@
-// Candidate pairs of collision primitives whose swept, thickness-inflated bounds overlap over a
-// substep: the broad phase's output and the narrow phase's input. Per-substep lifetime, refilled
-// into storage that keeps its capacity.
+// Candidate pairs of collision primitives whose swept, thickness-inflated bounds overlap over the
+// motion the broad phase was given (the rest of a step, ARCHITECTURE.md §4): the broad phase's
+// output and the narrow phase's input. Per-step lifetime (refreshed within a step when a particle
+// is predicted to leave its bounds), refilled into storage that keeps its capacity.
 //
 // Pairs are stored sorted by (kind, first, second), so the set, and everything computed from it,
 // is the same whatever the thread count. Indices are into the CollisionPrimitives lists:
@@ -10,6 +11,12 @@
 //   VertexVertex  first = point,  second = point, first < second (isolated points only)
 // No pair shares a particle, none joins two objects whose pair is excluded, and none has only
 // particles of inverse mass 0 (two kinematic or pinned primitives cannot respond).
+//
+// The set is complete only while every particle stays inside its bounds (boundLower, boundUpper):
+// the box of the motion the pairs were found for, grown by less than the primitives' boxes were.
+// Two primitives whose particles stay inside their bounds and that are not a pair cannot come
+// within their contact distance. The solve clamps free particles into their bounds; a substep
+// whose prediction leaves them finds the pairs again.
 #pragma once
 
 #include <cstdint>
@@ -25,6 +32,10 @@ struct CandidatePairs {
   std::vector<PairKind> kind;
   std::vector<Index> first;
   std::vector<Index> second;
+
+  // Per particle: where it must stay for the set to be complete.
+  std::vector<Vec3> boundLower;
+  std::vector<Vec3> boundUpper;
 
   std::size_t size() const { return kind.size(); }
   void clear() { kind.clear(), first.clear(), second.clear(); }

@@ -44,7 +44,8 @@ struct PrimitiveContactPool {
   // incidence[incidenceOffset[i] .. incidenceOffset[i+1]) as (contact << 2 | slot).
   std::vector<Index> incidenceOffset;
   std::vector<Index> incidence;
-  std::vector<Index> touched;  // particles with at least one contact, ascending
+  std::vector<Index> touched;          // particles with at least one contact, ascending
+  std::vector<Index> incidenceCursor;  // scratch of the incidence's parallel build
 
   // Friction scratch of the parallel backends: the tangential correction of each contact.
   std::vector<Vec3> tangentStep;
@@ -54,8 +55,6 @@ struct PrimitiveContactPool {
   std::vector<Index> slotOfCandidate;
   std::vector<double> startDistance;
   std::vector<std::uint8_t> suspect;
-  // Per particle: p as predicted before the solve (what the broad phase's bounds enclose).
-  std::vector<Vec3> predicted;
 
   std::size_t size() const { return particles.size(); }
   void resize(std::size_t n) {

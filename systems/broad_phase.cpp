@@ -300,6 +300,49 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
   return stats;
 }
 
+void predictMotionBounds(CandidatePairs& pairs, std::span<const Vec3> x, std::span<const Vec3> p,
+                         std::span<const Real> w, const Vec3& g, Real h, int remaining) {
+  pairs.boundLower.resize(x.size());
+  pairs.boundUpper.resize(x.size());
+  const Real steps = static_cast<Real>(remaining);
+  const Vec3 fall = (steps * (steps - 1) / 2 * h * h) * g;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), kBoxGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        Vec3 end = x[i] + steps * (p[i] - x[i]);
+                        if (w[i] > 0) end += fall;
+                        pairs.boundLower[i] = x[i].cwiseMin(end);
+                        pairs.boundUpper[i] = x[i].cwiseMax(end);
+                      }
+                    });
+}
+
+void growParticleBounds(CandidatePairs& pairs, Real margin) {
+  const Real slack = kBoundSlackFraction * margin;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.boundLower.size(), kBoxGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        pairs.boundLower[i].array() -= slack;
+                        pairs.boundUpper[i].array() += slack;
+                      }
+                    });
+}
+
+bool withinParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p) {
+  if (pairs.boundLower.size() != p.size()) return false;
+  const std::size_t outside = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, p.size(), kBoxGrain), std::size_t{0},
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t count) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i)
+          // Written so that a non-finite coordinate does not count as outside.
+          count += (p[i].array() < pairs.boundLower[i].array()).any() ||
+                   (p[i].array() > pairs.boundUpper[i].array()).any();
+        return count;
+      },
+      std::plus<>());
+  return outside == 0;
+}
+
 BroadPhaseStats findCandidatePairsBruteForce(CandidatePairs& out,
                                              const CollisionPrimitives& primitives,
                                              std::span<const Vec3> x, std::span<const Vec3> p,

@@ -1,6 +1,7 @@
 #include "systems/primitive_contacts.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include <tbb/blocked_range.h>
@@ -140,6 +141,16 @@ bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectS
   const Vec3d gap0 = combine(c0, X0, v.count);
   startDistance = gap0.norm();
   const double reach = double(v.radius) + double(kPrimitiveContactMargin);
+  if (v.objectA == v.objectB) {
+    // Neighbours in the mesh: no contact between primitives of one object that are within reach
+    // of each other in the rest shape. They would be contacts whenever the mesh is at rest, and
+    // resist its in-plane compression rather than keep layers apart; the mesh's own constraints
+    // hold them, and the fail-safe still checks them for crossings. Tested first: in a single
+    // layer of cloth almost every pair is such a neighbour.
+    Vec3d R[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
+    for (int k = 0; k < v.count; ++k) R[k] = particles.restPosition[v.id[k]].cast<double>();
+    if (combine(closestCoefficients(v.kind, R), R, v.count).norm() < reach) return false;
+  }
   const double motion = motionBound(v, X0, X1);
   if (!std::isfinite(startDistance) || startDistance - motion > reach) return false;
   // Along the predicted motion the distance is at least max(d0 − t L, d1 − (1 − t) L), whose
@@ -150,13 +161,6 @@ bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectS
   // A non-finite prediction gets no contact, so that it cannot spread to the pair's other
   // particles; the update resets and counts it.
   if (!std::isfinite(motion) || !std::isfinite(endDistance)) return false;
-  if (v.objectA == v.objectB) {
-    // Held apart by the mesh itself: no contact between primitives that are closer than their
-    // contact distance in the rest shape (they would push the mesh away from its rest shape).
-    Vec3d R[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
-    for (int k = 0; k < v.count; ++k) R[k] = particles.restPosition[v.id[k]].cast<double>();
-    if (combine(closestCoefficients(v.kind, R), R, v.count).norm() < double(v.radius)) return false;
-  }
   if (!write) return true;
 
   // The configuration the contact is linearised at: where the pair first comes within its
@@ -272,27 +276,73 @@ void gatherCorrections(const PrimitiveContactPool& pool, ParticlePool& particles
                     });
 }
 
+// The CSR incidence, in parallel: per-particle counts (integer atomics: the same totals in any
+// order), one scan for the offsets and the touched particles, a fill through atomic cursors, and
+// each particle's short list sorted into contact order, so the gather's summation order, and its
+// result, do not depend on the thread count.
 void buildIncidence(PrimitiveContactPool& pool, std::size_t particleCount) {
-  pool.incidenceOffset.assign(particleCount + 1, 0);
   const std::size_t n = pool.size();
-  for (std::size_t c = 0; c < n; ++c)
-    for (int k = 0; k < 4; ++k)
-      if (pool.coefficient[c][k] != 0) ++pool.incidenceOffset[pool.particles[c][k] + 1];
-  pool.touched.clear();
-  for (std::size_t i = 0; i < particleCount; ++i) {
-    if (pool.incidenceOffset[i + 1] > 0) pool.touched.push_back(static_cast<Index>(i));
-    pool.incidenceOffset[i + 1] += pool.incidenceOffset[i];
-  }
-  pool.incidence.resize(pool.incidenceOffset[particleCount]);
-  // Fill in contact order; the offsets are used as cursors and restored afterwards.
-  for (std::size_t c = 0; c < n; ++c)
-    for (int k = 0; k < 4; ++k)
-      if (pool.coefficient[c][k] != 0)
-        pool.incidence[pool.incidenceOffset[pool.particles[c][k]]++] =
-            static_cast<Index>(c << 2 | static_cast<std::size_t>(k));
-  for (std::size_t i = particleCount; i > 0; --i)
-    pool.incidenceOffset[i] = pool.incidenceOffset[i - 1];
-  pool.incidenceOffset[0] = 0;
+  pool.incidenceOffset.assign(particleCount + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t c = r.begin(); c != r.end(); ++c)
+                        for (int k = 0; k < 4; ++k)
+                          if (pool.coefficient[c][k] != 0)
+                            std::atomic_ref<Index>(pool.incidenceOffset[pool.particles[c][k] + 1])
+                                .fetch_add(1, std::memory_order_relaxed);
+                    });
+  // Inclusive scan of the counts into offsets; the touched flags are scanned alongside into each
+  // touched particle's place in `touched`.
+  struct Sums {
+    Index entries = 0, touched = 0;
+  };
+  pool.incidenceCursor.resize(particleCount);
+  const Sums total = tbb::parallel_scan(
+      tbb::blocked_range<std::size_t>(0, particleCount, kParticleGrain), Sums{},
+      [&](const tbb::blocked_range<std::size_t>& r, Sums sum, bool final) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Index count = pool.incidenceOffset[i + 1];
+          if (final) {
+            pool.incidenceCursor[i] = sum.touched;
+            pool.incidenceOffset[i + 1] = sum.entries + count;
+          }
+          sum.entries += count;
+          sum.touched += count > 0;
+        }
+        return sum;
+      },
+      [](Sums a, Sums b) {
+        return Sums{a.entries + b.entries, a.touched + b.touched};
+      });
+  pool.touched.resize(total.touched);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particleCount, kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        if (pool.incidenceOffset[i + 1] > pool.incidenceOffset[i])
+                          pool.touched[pool.incidenceCursor[i]] = static_cast<Index>(i);
+                        pool.incidenceCursor[i] = pool.incidenceOffset[i];
+                      }
+                    });
+  pool.incidence.resize(total.entries);
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t c = r.begin(); c != r.end(); ++c)
+          for (int k = 0; k < 4; ++k)
+            if (pool.coefficient[c][k] != 0) {
+              const Index at = std::atomic_ref<Index>(pool.incidenceCursor[pool.particles[c][k]])
+                                   .fetch_add(1, std::memory_order_relaxed);
+              pool.incidence[at] = static_cast<Index>(c << 2 | static_cast<std::size_t>(k));
+            }
+      });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pool.touched.size(), kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t t = r.begin(); t != r.end(); ++t) {
+                        const Index i = pool.touched[t];
+                        std::sort(pool.incidence.begin() + pool.incidenceOffset[i],
+                                  pool.incidence.begin() + pool.incidenceOffset[i + 1]);
+                      }
+                    });
 }
 
 }  // namespace
@@ -304,7 +354,6 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
   contacts.slotOfCandidate.resize(n + 1);
   contacts.startDistance.resize(n);
   contacts.suspect.resize(n);
-  contacts.predicted.assign(particles.p.begin(), particles.p.end());
   // Pass 1: which candidates become contacts (and their start distance).
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, n, kPairGrain),
@@ -399,21 +448,18 @@ void applyPrimitiveFriction(PrimitiveContactPool& contacts, ParticlePool& partic
 }
 
 CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
-                                const CollisionPrimitives& primitives, ParticlePool& particles,
-                                Real margin) {
+                                const CollisionPrimitives& primitives, ParticlePool& particles) {
   CrossingReport report;
-  // Every particle ends within margin/2 of the bounds of its predicted motion, which the broad
-  // phase's inflated boxes enclose: no pair outside the candidate set can have crossed.
-  const Real slack = margin / 2;
+  // Every particle ends inside its bounds, which the broad phase's inflated boxes enclose: no pair
+  // outside the candidate set can have crossed.
   report.clamped = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, particles.size(), kParticleGrain), std::size_t{0},
       [&](const tbb::blocked_range<std::size_t>& r, std::size_t clamped) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
           // A non-finite prediction is left for the update, which resets and counts it.
           if (particles.w[i] == 0 || !particles.p[i].allFinite()) continue;
-          const Vec3 lo = particles.x[i].cwiseMin(contacts.predicted[i]).array() - slack;
-          const Vec3 hi = particles.x[i].cwiseMax(contacts.predicted[i]).array() + slack;
-          const Vec3 inside = particles.p[i].cwiseMax(lo).cwiseMin(hi);
+          const Vec3 inside =
+              particles.p[i].cwiseMax(candidates.boundLower[i]).cwiseMin(candidates.boundUpper[i]);
           if (inside != particles.p[i]) {
             particles.p[i] = inside;
             ++clamped;

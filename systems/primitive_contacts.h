@@ -34,13 +34,12 @@ struct ObjectRecord;
 
 // How much farther than its contact distance a pair may be and still get a contact (m): the room
 // the sweeps have to move the primitives together after detection. The broad phase inflates
-// bounds by the same amount, and the solve keeps every particle within it of its predicted
-// motion's bounds, so no crossing can escape the candidate set.
+// boxes by half of it, and the solve keeps every particle inside bounds grown by less
+// (kBoundSlackFraction), so no crossing can escape the candidate set.
 constexpr Real kPrimitiveContactMargin = Real(0.005);
 
 // Refills `contacts` from the candidate pairs (x: start of the substep, p: predicted end, v:
-// velocity before the solve). Also keeps a copy of p as the predicted positions the solve's
-// motion is bounded by. Deterministic: contacts come out in candidate order.
+// velocity before the solve). Deterministic: contacts come out in candidate order.
 void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
                              const CollisionPrimitives& primitives, const ParticlePool& particles);
 
@@ -61,11 +60,10 @@ struct CrossingReport {
   int rounds = 0;
 };
 
-// Keeps the solve's final motion crossing-free (see the header comment). `margin` is the broad
-// phase's inflation.
+// Keeps the solve's final motion crossing-free (see the header comment): first clamps every free
+// particle into its bounds (CandidatePairs::boundLower/boundUpper), then the CCD rounds.
 CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
-                                const CollisionPrimitives& primitives, ParticlePool& particles,
-                                Real margin);
+                                const CollisionPrimitives& primitives, ParticlePool& particles);
 
 // Restitution of closing contacts after the velocity update (v = (p − x)/h already holds the
 // inelastic response): the relative normal velocity becomes at least −e times its approach value.

@@ -279,6 +279,8 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
                                     {"update", profile.update * perStep}};
     const CollisionReport& c = world.collisionReport();
     stats["collisions"] = {
+        {"broad_phases", c.broadPhases},
+        {"broad_phase_refreshes", c.broadPhaseRefreshes},
         {"candidate_pairs", c.candidatePairs},
         {"contacts", c.contacts},
         {"clamped_particles", c.clampedParticles},

@@ -117,9 +117,21 @@ void StepGraph::runStage(int stage) {
         s.primitiveContacts.resize(0);
         break;
       }
+      // Once per step over the step's extrapolated motion, and again for the rest of the step
+      // whenever a substep's prediction leaves the particles' bounds (a kinematic track that
+      // curves, a particle knocked off its course), so the pair set is always complete.
       profile.broadPhase += timed([&] {
-        findCandidatePairs(s.candidates, s.bvh, s.primitives, s.particles.x, s.particles.p,
-                           s.particles.w, kPrimitiveContactMargin);
+        if (s.substep > 0 && withinParticleBounds(s.candidates, s.particles.p)) return;
+        const ParticlePool& particles = s.particles;
+        CandidatePairs& pairs = s.candidates;
+        predictMotionBounds(pairs, particles.x, particles.p, particles.w, s.gravity, h_,
+                            s.solver.substeps - s.substep);
+        // A primitive's box is the box of its particles' motion boxes, which are the two corners.
+        findCandidatePairs(pairs, s.bvh, s.primitives, pairs.boundLower, pairs.boundUpper,
+                           particles.w, kPrimitiveContactMargin);
+        growParticleBounds(pairs, kPrimitiveContactMargin);
+        ++report.broadPhases;
+        if (s.substep > 0) ++report.broadPhaseRefreshes;
       });
       profile.narrowPhase += timed([&] {
         detectPrimitiveContacts(s.primitiveContacts, s.candidates, s.primitives, s.particles);
@@ -142,8 +154,8 @@ void StepGraph::runStage(int stage) {
         if (s.primitives.total() > 0)
           contactSeconds += timed([&] {
             applyPrimitiveFriction(s.primitiveContacts, s.particles, s.solver.kind);
-            crossing = resolveCrossings(s.primitiveContacts, s.candidates, s.primitives,
-                                        s.particles, kPrimitiveContactMargin);
+            crossing =
+                resolveCrossings(s.primitiveContacts, s.candidates, s.primitives, s.particles);
           });
       });
       CollisionReport& report = s.collisionReport;
