@@ -3,9 +3,18 @@
 // per vertex with nucleon's lumped mass (mass 0 pins a node), one link per mesh edge with the
 // default material (linear stiffness kLST = 1: hard), optionally Bullet's bending links
 // (generateBendingConstraints(2)), K position iterations, no velocity or drift iterations.
-// stepSimulation(dt, 0) advances by exactly dt in one step.
+// stepSimulation(dt, 0) advances by exactly dt in one step; with S substeps it is called S times
+// with dt/S (Bullet's own fixed substepping accumulates dt in single precision and may take one
+// or three substeps where two were meant).
+//
+// Mesh scene: the icosphere's triangles as a btBvhTriangleMeshShape on a static btRigidBody (mass
+// 0). Bullet's concave collision algorithm turns each triangle near the soft body into a convex
+// prism (the triangle extruded 6 cm along both sides of its normal) and hands it to the soft
+// body's collision mode: SDF_RS (the default) evaluates the prism's signed distance at the nodes
+// from a sparse grid, CL_RS collides clusters (one per triangle of the cloth) with the prism.
 #include <algorithm>
 #include <chrono>
+#include <memory>
 
 #include "bench/cloth_case.h"
 
@@ -83,12 +92,41 @@ RunResult runBulletCloth(const ClothCase& c, const ClothMesh& mesh) {
   body->m_cfg.diterations = 0;
   body->m_cfg.citerations = c.iterations;
   body->m_cfg.kDF = c.friction;
-  body->getCollisionShape()->setMargin(c.thickness);
+  // The distance the soft body keeps from rigid shapes: against the mesh, the sum of the two
+  // thicknesses, what nucleon keeps between cloth and collider.
+  body->getCollisionShape()->setMargin(
+      btScalar(c.scene == ClothScene::Mesh ? meshContactDistance(c) : double(c.thickness)));
+  if (c.scene == ClothScene::Mesh && c.bulletCollision == BulletCollision::Cluster) {
+    body->m_cfg.collisions = btSoftBody::fCollision::CL_RS;
+    body->generateClusters(0);  // one cluster per triangle, as Bullet's cloth cluster demo
+  } else {
+    body->m_cfg.collisions = btSoftBody::fCollision::SDF_RS;  // Bullet's default
+  }
   world.addSoftBody(body);
 
   btSphereShape sphereShape(c.sphereRadius);
   btRigidBody sphere(btRigidBody::btRigidBodyConstructionInfo(0, nullptr, &sphereShape));
   if (c.scene == ClothScene::Sphere) world.addRigidBody(&sphere);
+
+  // The mesh scene's collider: the same triangles as nucleon's, in world coordinates.
+  btTriangleMesh meshTriangles(/*use32bitIndices*/ true, /*use4componentVertices*/ false);
+  std::unique_ptr<btBvhTriangleMeshShape> meshShape;
+  std::unique_ptr<btRigidBody> meshBody;
+  if (c.scene == ClothScene::Mesh) {
+    const auto& v = mesh.collider.vertices;
+    auto point = [&](Index i) { return btVector3(v[i].x(), v[i].y(), v[i].z()); };
+    for (const auto& t : mesh.collider.triangles)
+      meshTriangles.addTriangle(point(t[0]), point(t[1]), point(t[2]),
+                                /*removeDuplicateVertices*/ false);
+    meshShape = std::make_unique<btBvhTriangleMeshShape>(&meshTriangles,
+                                                         /*useQuantizedAabbCompression*/ true);
+    meshBody = std::make_unique<btRigidBody>(
+        btRigidBody::btRigidBodyConstructionInfo(0, nullptr, meshShape.get()));
+    // SDF_RS multiplies kDF by the rigid body's friction, CL_RS takes the smaller of the two:
+    // with 1 here both give kDF, the case's coefficient.
+    meshBody->setFriction(1);
+    world.addRigidBody(meshBody.get());
+  }
 
   RunResult r;
   std::vector<Vec3> x(nodes.size());
@@ -99,19 +137,22 @@ RunResult runBulletCloth(const ClothCase& c, const ClothMesh& mesh) {
     }
   };
   double timed = 0;
+  const btScalar substepLength = btScalar(c.dt / c.substeps);
   for (int step = 0; step < c.steps; ++step) {
     const auto start = Clock::now();
-    world.stepSimulation(btScalar(c.dt), 0);
+    for (int substep = 0; substep < c.substeps; ++substep) world.stepSimulation(substepLength, 0);
+    // Bullet's soft-body demos drop stale cells of the sparse distance field once per frame; the
+    // mesh scene creates cells for every prism the cloth passes.
+    if (c.scene == ClothScene::Mesh) info.m_sparsesdf.GarbageCollect();
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     if (step >= c.warmup) timed += seconds;
     read();
-    const StrainStats strain = measureStrain(mesh, x);
-    r.peakMaxStrain = std::max(r.peakMaxStrain, strain.max);
-    r.averageMeanStrain += strain.mean / c.steps;
+    observeStep(c, mesh, x, r);
   }
   r.msPerStep = timed * 1e3 / (c.steps - c.warmup);
   finishRun(c, mesh, x, r);
   if (c.scene == ClothScene::Sphere) world.removeRigidBody(&sphere);
+  if (meshBody) world.removeRigidBody(meshBody.get());
   world.removeSoftBody(body);
   delete body;
   return r;

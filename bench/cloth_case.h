@@ -1,7 +1,10 @@
 // The cloth scenes of the peer comparison, defined once so that every engine builds exactly the
 // same thing: an N×N vertex grid, 2 m square, horizontal at 1 m, 1 kg, gravity −9.81 m/s²,
-// stepped at 1/60 s with one substep and K constraint iterations. Two scenes: hanging from two
-// adjacent corners, and free, dropped onto a static sphere of radius 0.5 at the origin.
+// stepped at 1/60 s with one substep and K constraint iterations. Three scenes: hanging from two
+// adjacent corners; free, dropped onto a static sphere of radius 0.5 at the origin (an analytic
+// collider in both engines); and free, dropped onto a static triangle mesh of a sphere (nucleon's
+// icosphere, the same triangles in both engines), off the cloth's centre so that it drapes and
+// slides, with two substeps per step.
 #pragma once
 
 #include <array>
@@ -13,8 +16,15 @@
 
 namespace nucleon::bench {
 
-enum class ClothScene { Hanging, Sphere };
+enum class ClothScene { Hanging, Sphere, Mesh };
 const char* toString(ClothScene scene);
+
+// How Bullet's soft body collides with the rigid triangle mesh (btSoftBody::fCollision): SDF_RS,
+// its default, samples a signed distance field of each triangle (extruded into a thin prism by
+// Bullet's concave collision algorithm) at the nodes; CL_RS collides clusters of nodes (here one
+// per triangle, as Bullet's own cloth cluster demo) as convex hulls against each triangle.
+enum class BulletCollision { Sdf, Cluster };
+const char* toString(BulletCollision mode);
 
 struct ClothCase {
   ClothScene scene = ClothScene::Hanging;
@@ -28,9 +38,48 @@ struct ClothCase {
   int steps = 120;  // simulated steps per run (2 s)
   int warmup = 10;  // leading steps left out of the timing (first-step setup, caches)
   double dt = 1.0 / 60;
+  int substeps = 1;  // nucleon's substeps; Bullet steps dt/substeps that many times
   Real sphereRadius = Real(0.5);
-  Real thickness = Real(0.01);  // contact distance kept from the sphere
+  Real thickness = Real(0.01);  // the cloth's; the contact distance kept from the sphere
   Real friction = Real(0.5);
+  // Mesh scene: the icosphere collider. Its top is 0.9 m below the cloth, its centre 0.15 m off
+  // the cloth's centre along x: the cloth drapes unevenly and slides, and stays on the sphere
+  // for the 2 s (0.35 m off, as in the scene file, nucleon's cloth slides off before the end).
+  Vec3 meshCenter = Vec3(Real(0.15), Real(-0.4), 0);
+  int meshSubdivisions = 3;          // 1 280 triangles
+  Real meshThickness = Real(0.005);  // the collider's; cloth and mesh keep the sum apart
+  BulletCollision bulletCollision = BulletCollision::Sdf;
+};
+
+// The mesh scene as nucleon's scene cloth_drop_sphere sets it up (thicknesses 6 mm for the cloth
+// and 5 mm for the collider, friction 0.3, two substeps), without its ground plane and with the
+// cloth's self-collision off.
+ClothCase meshDropCase(int resolution, int iterations);
+
+// The distance cloth and mesh keep apart in the mesh scene: the sum of their thicknesses.
+double meshContactDistance(const ClothCase& c);
+
+// Signed distance to a closed, outward-oriented triangle mesh, computed from its triangles alone
+// (nothing of either engine's collision code): the exact distance to the nearest triangle,
+// negative inside, the side decided by the parity of a ray's crossings.
+class MeshDistance {
+ public:
+  MeshDistance() = default;
+  explicit MeshDistance(const ObjectDef& mesh);
+  bool empty() const { return triangles_.empty(); }
+  // Points farther than `beyond` outside the mesh's bounding ball are not measured: they return
+  // a lower bound of their distance (> beyond).
+  double signedDistance(const Vec3d& point, double beyond) const;
+
+ private:
+  struct Triangle {
+    Vec3d a, b, c;
+    Vec3d centroid;
+    double radius = 0;  // of the ball about the centroid that holds the triangle
+  };
+  std::vector<Triangle> triangles_;
+  Vec3d ballCenter_ = Vec3d::Zero();
+  double ballRadius_ = 0;
 };
 
 // The shared rest shape: positions, triangles, the unique edges (the stretch constraints of both
@@ -40,6 +89,9 @@ struct ClothMesh {
   std::vector<std::array<Index, 2>> edges;
   std::vector<Real> restLength;
   std::vector<Real> mass;
+  // Mesh scene: the collider (nucleon's icosphere) and the measure of distance to it.
+  ObjectDef collider;
+  MeshDistance colliderDistance;
 };
 ClothMesh makeClothMesh(const ClothCase& c);
 
@@ -66,10 +118,23 @@ struct RunResult {
   double averageMeanStrain = 0;     // mean strain averaged over all steps (less phase-dependent)
   double penetration = 0;           // sphere scene: deepest vertex inside the sphere
   double lowestY = 0;
+  // Mesh scene, from the signed distance s of every cloth vertex to the mesh after every step:
+  // the smallest s over the run (the deepest penetration below the contact distance d is
+  // max(0, d − s), below the surface itself max(0, −s)), the vertices with s < 0 after the last
+  // step and the most after any step, and the smallest s after the last step.
+  double meshMinDistance = 1e30;
+  int meshInsideAtEnd = 0;
+  int meshInsidePeak = 0;
+  double meshMinDistanceAtEnd = 1e30;
   std::uint64_t stateHash = 0;  // nucleon only
   std::size_t tetherCount = 0;  // nucleon only: tether constraints in the world
   bool finite = true;
 };
+
+// Updates the figures tracked over the run (peak strain, mean strain, the mesh scene's distances)
+// from the positions after one step.
+void observeStep(const ClothCase& c, const ClothMesh& mesh, const std::vector<Vec3>& positions,
+                 RunResult& result);
 
 // Fills the end-of-run figures (final strain and its 99th percentile, penetration, lowest
 // point, finiteness) from the positions after the last step.

@@ -1,5 +1,6 @@
 // The comparison cloth in nucleon: the shared mesh, hard stretch (compliance 0) on every edge,
-// K sweeps per substep, one substep, the engine's defaults otherwise. Tethers as the case says:
+// K sweeps per substep, the case's substeps (one but in the mesh scene), the engine's defaults
+// otherwise. Tethers as the case says:
 // on, they are part of how nucleon holds a pinned cloth and are counted in its projections and
 // time; off, nucleon solves the same constraint set as Bullet.
 #include <algorithm>
@@ -16,7 +17,7 @@ RunResult runNucleonCloth(const ClothCase& c, const ClothMesh& mesh, SolverKind 
   SolverSettings settings;
   settings.kind = solver;
   settings.iterations = c.iterations;
-  settings.substeps = 1;
+  settings.substeps = c.substeps;
   world.setSolver(settings);
   world.setThreads(threads);
   if (c.scene == ClothScene::Sphere) {
@@ -27,12 +28,23 @@ RunResult runNucleonCloth(const ClothCase& c, const ClothMesh& mesh, SolverKind 
     sphere.staticFriction = c.friction;
     world.addSphereCollider(sphere);
   }
+  if (c.scene == ClothScene::Mesh) {
+    ObjectDef collider = mesh.collider;
+    collider.material.staticFriction = std::max(collider.material.staticFriction, c.friction);
+    world.addCollider(collider);
+  }
   ObjectDef cloth = mesh.def;
   cloth.material.tethers = c.tethers;
-  world.addCloth(cloth);
+  // Bullet's cloth does not collide with itself here either (no VF_SS or CL_SS).
+  cloth.material.selfCollision = false;
+  if (c.scene == ClothScene::Mesh) {  // as the scene file: μ_k from the case, μ_s at least that
+    cloth.material.friction = c.friction;
+    cloth.material.staticFriction = std::max(cloth.material.staticFriction, c.friction);
+  }
+  const ObjectId clothId = world.addCloth(cloth);
 
   RunResult r;
-  std::vector<Vec3> x(world.particleCount());
+  std::vector<Vec3> x(mesh.def.vertices.size());
   double timed = 0;
   for (int step = 0; step < c.steps; ++step) {
     if (step == c.warmup) world.resetProfile();
@@ -40,11 +52,9 @@ RunResult runNucleonCloth(const ClothCase& c, const ClothMesh& mesh, SolverKind 
     world.step(c.dt);
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     if (step >= c.warmup) timed += seconds;
-    const auto positions = world.positions();
+    const auto positions = world.positions(clothId);
     x.assign(positions.begin(), positions.end());
-    const StrainStats strain = measureStrain(mesh, x);
-    r.peakMaxStrain = std::max(r.peakMaxStrain, strain.max);
-    r.averageMeanStrain += strain.mean / c.steps;
+    observeStep(c, mesh, x, r);
   }
   const int measured = c.steps - c.warmup;
   r.msPerStep = timed * 1e3 / measured;

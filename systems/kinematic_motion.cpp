@@ -71,35 +71,49 @@ Vec3d bendPoint(const BendMotion& bend, double kappa, const Vec3d& r) {
   return alongPart * bend.along + normalPart * n + z * bend.axis;
 }
 
-void posePositions(const KinematicTrack& track, std::span<const Vec3> rest, double t,
-                   std::span<Vec3> out) {
+namespace {
+
+// Poses `count` particles with the track's motion at time t: `rest(i)` is the i-th one's rest
+// position.
+template <typename RestOf>
+void poseEach(const KinematicTrack& track, Index count, RestOf&& rest, double t, Vec3* out) {
   const RigidPose pose = keyframePose(track, t);
   const Eigen::Matrix3d rotation = pose.rotation.toRotationMatrix();
   const Vec3d shift = track.pivot + pose.translation;
   const double kappa = bendCurvature(track.bend, t);
-  forEachParticle(static_cast<Index>(rest.size()), [&](Index i) {
-    Vec3d r = rest[i].cast<double>() - track.pivot;
+  forEachParticle(count, [&](Index i) {
+    Vec3d r = rest(i).template cast<double>() - track.pivot;
     if (kappa != 0) r = bendPoint(track.bend, kappa, r);
     out[i] = (rotation * r + shift).cast<Real>();
   });
 }
 
+}  // namespace
+
+void posePositions(const KinematicTrack& track, std::span<const Vec3> rest, double t,
+                   std::span<Vec3> out) {
+  const Index count = static_cast<Index>(std::min(rest.size(), out.size()));
+  poseEach(
+      track, count, [&](Index i) -> const Vec3& { return rest[i]; }, t, out.data());
+}
+
 void animateKinematics(KinematicTracks& kinematics, ParticlePool& particles, int substep,
                        int substeps, double endTime, Real h) {
   for (KinematicTrack& track : kinematics.tracks) {
-    const Index first = track.firstParticle;
-    const std::span<Vec3> target(kinematics.target.data() + track.firstTarget, track.particleCount);
-    const std::span<const Vec3> x(particles.x.data() + first, track.particleCount);
+    Vec3* target = kinematics.target.data() + track.firstTarget;
+    auto x = [&](Index i) -> const Vec3& { return particles.x[track.particle(i)]; };
     if (!track.drivenByTargets) {
-      posePositions(
-          track, std::span<const Vec3>(particles.restPosition).subspan(first, track.particleCount),
+      poseEach(
+          track, track.particleCount,
+          [&](Index i) -> const Vec3& { return particles.restPosition[track.particle(i)]; },
           endTime, target);
     } else if (!track.targetsPending) {  // no targets for this step: hold still
-      std::copy(x.begin(), x.end(), target.begin());
+      forEachParticle(track.particleCount, [&](Index i) { target[i] = x(i); });
     } else {
-      if (substep == 0) std::copy(x.begin(), x.end(), track.stepStart.begin());
+      if (substep == 0)
+        forEachParticle(track.particleCount, [&](Index i) { track.stepStart[i] = x(i); });
       if (substep + 1 == substeps) {  // the last substep lands exactly on the goal
-        std::copy(track.goal.begin(), track.goal.end(), target.begin());
+        std::copy(track.goal.begin(), track.goal.end(), target);
         track.targetsPending = false;
       } else {
         const Real f = static_cast<Real>(substep + 1) / static_cast<Real>(substeps);
@@ -109,17 +123,17 @@ void animateKinematics(KinematicTracks& kinematics, ParticlePool& particles, int
       }
     }
     forEachParticle(track.particleCount,
-                    [&](Index i) { particles.v[first + i] = (target[i] - x[i]) / h; });
+                    [&](Index i) { particles.v[track.particle(i)] = (target[i] - x(i)) / h; });
   }
 }
 
 void finishKinematics(const KinematicTracks& kinematics, ParticlePool& particles) {
   for (const KinematicTrack& track : kinematics.tracks) {
-    const Index first = track.firstParticle;
+    const Vec3* target = kinematics.target.data() + track.firstTarget;
     forEachParticle(track.particleCount, [&](Index i) {
-      const Vec3& target = kinematics.target[track.firstTarget + i];
-      particles.x[first + i] = target;
-      particles.p[first + i] = target;
+      const Index particle = track.particle(i);
+      particles.x[particle] = target[i];
+      particles.p[particle] = target[i];
     });
   }
 }

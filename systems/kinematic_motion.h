@@ -1,5 +1,5 @@
-// Animated colliders (ARCHITECTURE.md §4): where a kinematic track puts its particles at a time,
-// and the two ends of a substep's animation.
+// Animated colliders and animated pins (ARCHITECTURE.md §4): where a kinematic track puts its
+// particles at a time, and the two ends of a substep's animation.
 //
 //   animateKinematics (before predict): target ← the track's positions at the substep's end,
 //                                        v ← (target − x) / h, so predict's p = x + h v is the
@@ -7,8 +7,10 @@
 //   finishKinematics (after update):    x, p ← target, so the collider is exactly on its track at
 //                                        every substep's end and rounding never accumulates.
 //
-// Collider particles have inverse mass 0, so nothing in between moves them: over the substep
-// they go from x to p along the straight line the collision code assumes.
+// Animated particles (a collider's, or a pin group's) have inverse mass 0, so nothing in between
+// moves them: over the substep they go from x to p along the straight line the collision code
+// assumes. Every particle's work is its own, so the parallel loops give the same result for any
+// thread count, and nothing here allocates.
 #pragma once
 
 #include <span>
@@ -31,7 +33,8 @@ double bendCurvature(const BendMotion& bend, double t);
 // The bend's axes must be unit and perpendicular.
 Vec3d bendPoint(const BendMotion& bend, double kappa, const Vec3d& r);
 
-// The positions a keyframed track gives to `rest` (its particles' rest positions) at time t.
+// The positions a keyframed track gives to `rest` (its particles' rest positions, in the track's
+// particle order) at time t.
 void posePositions(const KinematicTrack& track, std::span<const Vec3> rest, double t,
                    std::span<Vec3> out);
 

@@ -1,6 +1,8 @@
-// Animated colliders: keyframed rigid motion, the procedural bend and targets set through the API
-// put the collider's particles exactly where the animation says at every substep's end, with the
-// velocity of the substep's straight-line motion; bad input is rejected with a clear message.
+// Animated colliders and animated pins: keyframed rigid motion, the procedural bend and targets
+// set through the API put the collider's particles (or a pin group's) exactly where the animation
+// says at every substep's end, with the velocity of the substep's straight-line motion; the free
+// part of a cloth with animated pins follows them; bad input is rejected with a clear message.
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -475,6 +477,303 @@ TEST(KinematicScene, AnimatesAnOpenColliderFromAnObjFile) {
   test::simulate(still, 3);
   const auto y = still.positions(still.objectAt(0));
   for (std::size_t i = 0; i < y.size(); ++i) EXPECT_EQ(y[i], scene.objects[0].def.vertices[i]);
+}
+
+// Animated pins (PinGroup): a ring of a cloth tube driven by a motion, the rest of the tube free.
+// 16 around × 8 rings, radius 0.25 m, 1 m long about y, centred at y = 1.
+TubeSpec smallTube() {
+  TubeSpec spec;
+  spec.resolution = {16, 8};
+  spec.radiusBottom = spec.radiusTop = Real(0.25);
+  spec.length = 1;
+  spec.center = Vec3(0, 1, 0);
+  return spec;
+}
+
+std::vector<Index> ring(const TubeSpec& spec, int k) {
+  std::vector<Index> out;
+  for (int j = 0; j < spec.resolution[0]; ++j) out.push_back(k * spec.resolution[0] + j);
+  return out;
+}
+
+// The top ring turns a full revolution about the tube's axis in 1 s, the bottom ring is held
+// still: the tube twists.
+ObjectDef twistingTube() {
+  const TubeSpec spec = smallTube();
+  ObjectDef def = tube(spec);
+  def.name = "tube";
+  def.pins = ring(spec, 0);
+  PinGroup top;
+  top.vertices = ring(spec, spec.resolution[1] - 1);
+  top.motion.pivot = Vec3d(0, 1.5, 0);
+  for (int k = 0; k <= 4; ++k)
+    top.motion.keyframes.push_back(key(0.25 * k, Vec3d::Zero(), Vec3d(0, 1, 0), 90 * k));
+  def.pinGroups = {top};
+  return def;
+}
+
+// At the end of every substep (one substep per step here, so every substep is observed) each
+// animated pin is exactly where its track puts it: the same bits as posing the rest shape.
+TEST(AnimatedPins, LandExactlyOnTheirTrackAtEverySubstepEnd) {
+  const ObjectDef def = twistingTube();
+  for (int substeps : {1, 4}) {
+    World world;
+    world.setSolver(test::solverSettings(SolverKind::ColoredGaussSeidel, 4, substeps));
+    world.setThreads(2);
+    const ObjectId id = world.addCloth(def);
+    const KinematicTrack& track = world.impl().state.kinematics.tracks.at(0);
+    ASSERT_EQ(track.particleCount, def.pinGroups[0].vertices.size());
+    std::vector<Vec3> rest, pose(track.particleCount);
+    for (Index v : def.pinGroups[0].vertices) rest.push_back(def.vertices[v]);
+    for (int step = 0; step < 40; ++step) {
+      world.step(kDt);
+      posePositions(track, rest, world.time(), pose);
+      const auto x = world.positions(id);
+      for (std::size_t i = 0; i < rest.size(); ++i) {
+        const Index v = def.pinGroups[0].vertices[i];
+        ASSERT_EQ(x[v], pose[i]) << "substeps " << substeps << ", step " << step << ", pin " << v;
+        // And where an independent rigid turn puts it: 360° per second about the y axis.
+        const double degrees = 360 * std::min(world.time(), 1.0);  // held after the last key
+        expectNear(x[v],
+                   rigid(def.vertices[v], Vec3d(0, 1.5, 0), {0, 1, 0}, degrees, Vec3d::Zero()),
+                   "pin " + std::to_string(v));
+      }
+    }
+    EXPECT_EQ(world.recoveries().total(), 0u);
+  }
+}
+
+// The top row of a hanging cloth is carried 1 m sideways in 1 s and then held: the free cloth
+// follows it through its constraints and comes to hang below the pins' new place.
+TEST(AnimatedPins, TheFreeClothFollows) {
+  GridSpec spec;
+  spec.resolution = {12, 12};
+  spec.size = {1, 1};
+  spec.center = Vec3(0, 1, 0);
+  spec.vertical = true;  // row 0 at the top (y = 1.5)
+  ObjectDef def = gridCloth(spec);
+  PinGroup top;
+  for (Index i = 0; i < 12; ++i) top.vertices.push_back(i);
+  top.motion.keyframes = {key(0, Vec3d::Zero(), Vec3d(0, 1, 0), 0),
+                          key(1, Vec3d(1, 0, 0), Vec3d(0, 1, 0), 0)};
+  def.pinGroups = {top};
+  def.material.damping = Real(0.01);
+  World world;
+  world.setSolver(test::solverSettings(SolverKind::ColoredGaussSeidel, 10, 2));
+  const ObjectId id = world.addCloth(def);
+  test::simulate(world, 240);  // 4 s: moved by 1 s, then 3 s to settle
+  const auto x = world.positions(id);
+  double meanShift = 0;
+  for (Index i = 12; i < x.size(); ++i) meanShift += x[i].x() - def.vertices[i].x();
+  meanShift /= static_cast<double>(x.size() - 12);
+  EXPECT_NEAR(meanShift, 1.0, 0.05) << "the free cloth hangs below the moved pins";
+  for (Index i = 0; i < 12; ++i) EXPECT_EQ(x[i], def.vertices[i] + Vec3(1, 0, 0));
+  EXPECT_LT(world.measure().maxStrain, 0.05);
+  EXPECT_EQ(world.recoveries().total(), 0u);
+}
+
+// Every pin of the turning ring stays on its circle: the radius about the axis is the rest
+// radius, and it sits at its height, at every step, while the tube below twists.
+TEST(AnimatedPins, ARotatingRingKeepsItsRadius) {
+  const ObjectDef def = twistingTube();
+  World world;
+  world.setSolver(test::solverSettings(SolverKind::ColoredGaussSeidel, 10, 2));
+  const ObjectId id = world.addCloth(def);
+  const Vec3d pivot = def.pinGroups[0].motion.pivot;
+  // The mean turn about y of ring k's vertices from their rest angles, right-handed.
+  auto turnOfRing = [&](int k) {
+    double sum = 0;
+    for (Index v : ring(smallTube(), k)) {
+      const Vec3 now = world.positions(id)[v], rest = def.vertices[v];
+      sum +=
+          std::remainder(std::atan2(-now.z(), now.x()) - std::atan2(-rest.z(), rest.x()), 2 * kPi);
+    }
+    return sum / 16;
+  };
+  for (int step = 1; step <= 60; ++step) {
+    world.step(1.0 / 60);
+    const auto x = world.positions(id);
+    for (Index v : def.pinGroups[0].vertices) {
+      const Vec3d r = x[v].cast<double>() - pivot;
+      EXPECT_NEAR(std::hypot(r.x(), r.z()), 0.25, tolerance(1)) << "step " << step << ", pin " << v;
+      EXPECT_NEAR(r.y(), 0, tolerance(1)) << "step " << step << ", pin " << v;
+    }
+    if (step == 15) {  // the top ring has turned a quarter of a revolution
+      EXPECT_NEAR(turnOfRing(7), kPi / 2, 1e-5);
+      EXPECT_GT(turnOfRing(4), 0.05) << "the twist reaches into the free tube";
+      EXPECT_LT(turnOfRing(4), kPi / 2);
+    }
+  }
+  EXPECT_EQ(world.recoveries().total(), 0u);
+  EXPECT_EQ(world.measure().nanCount, 0u);
+}
+
+TEST(AnimatedPins, RejectsBadGroupsWithAClearMessage) {
+  ObjectDef def = twistingTube();
+  def.pinGroups[0].vertices.clear();
+  EXPECT_NE(addError(def, false).find("cloth 'tube': pin group 0 has no vertices"),
+            std::string::npos)
+      << addError(def, false);
+
+  def = twistingTube();
+  def.pinGroups[0].vertices.push_back(999);
+  EXPECT_NE(addError(def, false)
+                .find("pin group 0: vertex 999 is out of range (the object has 128 vertices)"),
+            std::string::npos)
+      << addError(def, false);
+
+  def = twistingTube();
+  def.pinGroups[0].motion = ColliderMotion{};
+  EXPECT_NE(addError(def, false).find("pin group 0 has no motion: give keyframes or a bend"),
+            std::string::npos)
+      << addError(def, false);
+
+  def = twistingTube();
+  def.pinGroups[0].vertices.push_back(3);  // a still pin of ring 0
+  EXPECT_NE(addError(def, false).find("pin group 0: vertex 3 is also a still pin"),
+            std::string::npos)
+      << addError(def, false);
+
+  def = twistingTube();
+  def.pinGroups.push_back(def.pinGroups[0]);
+  EXPECT_NE(addError(def, false).find("pin group 1: vertex 112 is also in pin group 0"),
+            std::string::npos)
+      << addError(def, false);
+
+  def = twistingTube();
+  def.pinGroups[0].motion.keyframes[2].time = 0.25;
+  EXPECT_NE(
+      addError(def, false)
+          .find("pin group 0: keyframe 2 time 0.25 must be later than keyframe 1's time 0.25"),
+      std::string::npos)
+      << addError(def, false);
+
+  def = panel();
+  def.pinGroups = twistingTube().pinGroups;
+  def.pinGroups[0].vertices = {0};
+  EXPECT_NE(addError(def).find("a collider takes no pin groups"), std::string::npos);
+}
+
+const char* kPinScene = R"({
+  "frames": 4,
+  "objects": [{"type": "cloth", "name": "sleeve",
+               "shape": {"tube": {"resolution": [12, 6], "radius": 0.2, "length": 0.8}},
+               "pins": [0, 1],
+               "pin_groups": [{"ring": -1,
+                               "motion": {"pivot": [0, 1.4, 0], "loop": true,
+                                          "keyframes": [{"time": 0},
+                                                        {"time": 0.5, "degrees": 120},
+                                                        {"time": 1, "degrees": 240},
+                                                        {"time": 1.5, "degrees": 360}]}},
+                              {"vertices": [30, 31],
+                               "motion": {"keyframes": [{"time": 0},
+                                                        {"time": 1, "translation": [0, 0.1, 0]}]}}]}]
+})";
+
+TEST(AnimatedPinScene, ParsesRingsAndVertexLists) {
+  const Scene scene = parseScene(kPinScene, "test.json", ".");
+  const ObjectDef& def = scene.objects.at(0).def;
+  ASSERT_EQ(def.vertices.size(), 72u);
+  ASSERT_EQ(def.pinGroups.size(), 2u);
+  EXPECT_EQ(def.pinGroups[0].vertices, (std::vector<Index>{60, 61, 62, 63, 64, 65, 66, 67, 68, 69,
+                                                           70, 71}));  // ring 5, the last
+  EXPECT_EQ(def.pinGroups[1].vertices, (std::vector<Index>{30, 31}));
+  EXPECT_TRUE(def.pinGroups[0].motion.loop);
+  EXPECT_DOUBLE_EQ(def.pinGroups[0].motion.keyframes[3].angle, 2 * kPi);
+  World world = buildWorld(scene);
+  EXPECT_EQ(world.impl().state.kinematics.tracks.size(), 2u);
+  const auto w = world.inverseMasses();
+  EXPECT_EQ(std::count(w.begin(), w.end(), Real(0)), 2 + 12 + 2);
+  test::simulate(world, 30);
+  EXPECT_EQ(world.measure().nanCount, 0u);
+  EXPECT_EQ(world.recoveries().total(), 0u);
+}
+
+// A pin group may share the motion of an animated collider given earlier, by its name: its pins
+// then ride on the body exactly (the same track, the same bits).
+TEST(AnimatedPinScene, SharesTheMotionOfANamedCollider) {
+  const std::string json = R"({
+    "objects": [{"type": "collider", "name": "body",
+                 "shape": {"tube": {"resolution": [8, 3], "radius": 0.1, "length": 0.4,
+                                    "caps": true}},
+                 "motion": {"pivot": [0, 0.8, 0],
+                            "keyframes": [{"time": 0}, {"time": 0.5, "degrees": 120},
+                                          {"time": 1, "degrees": 240}],
+                            "bend": {"axis": [0, 0, 1], "along": [0, 1, 0],
+                                     "degrees_per_meter": 60, "frequency": 1}}},
+                {"type": "cloth", "name": "skirt",
+                 "shape": {"tube": {"resolution": [12, 4], "radius_top": 0.15,
+                                    "radius_bottom": 0.25, "length": 0.3, "center": [0, 0.9, 0]}},
+                 "pin_groups": [{"ring": -1, "motion": "body"}],
+                 "material": {"thickness": 0.005}}]
+  })";
+  const Scene scene = parseScene(json, "test.json", ".");
+  const ObjectDef& skirt = scene.objects.at(1).def;
+  ASSERT_EQ(skirt.pinGroups.size(), 1u);
+  EXPECT_EQ(skirt.pinGroups[0].motion.keyframes.size(), 3u);
+  EXPECT_EQ(skirt.pinGroups[0].motion.pivot, Vec3d(0, 0.8, 0));
+  EXPECT_EQ(skirt.pinGroups[0].motion.bend.frequency, 1);
+  World world = buildWorld(scene);
+  test::simulate(world, 20, kDt);
+  const KinematicTrack& body = world.impl().state.kinematics.tracks.at(0);
+  std::vector<Vec3> rest, posed(12);
+  for (Index v : skirt.pinGroups[0].vertices) rest.push_back(skirt.vertices[v]);
+  posePositions(body, rest, world.time(), posed);
+  for (std::size_t i = 0; i < rest.size(); ++i)
+    EXPECT_EQ(world.positions(world.objectAt(1))[skirt.pinGroups[0].vertices[i]], posed[i]);
+  EXPECT_EQ(world.recoveries().total(), 0u);
+
+  EXPECT_EQ(sceneError(std::string(json).replace(json.find("\"motion\": \"body\""), 16,
+                                                 "\"motion\": \"bdoy\"")),
+            "test.json: objects[1].pin_groups[0].motion: no animated collider named 'bdoy' before "
+            "this object");
+}
+
+// kPinScene with one substring replaced.
+std::string pinScene(const std::string& from, const std::string& to) {
+  std::string text = kPinScene;
+  const std::size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return text.replace(at, from.size(), to);
+}
+
+TEST(AnimatedPinScene, NamesTheJsonPathOfAnError) {
+  EXPECT_EQ(sceneError(pinScene("\"vertices\": [30, 31]", "\"vertices\": [30, 72]")),
+            "test.json: objects[0].pin_groups[1].vertices: vertex 72 is out of range (the shape "
+            "has 72 vertices)");
+  EXPECT_EQ(sceneError(pinScene("\"vertices\": [30, 31]", "\"vertices\": []")),
+            "test.json: objects[0].pin_groups[1].vertices: expected a non-empty list of vertex "
+            "indices");
+  EXPECT_EQ(sceneError(pinScene("\"ring\": -1", "\"ring\": 6")),
+            "test.json: objects[0].pin_groups[0].ring: must be in [-6, 5], got 6");
+  EXPECT_EQ(sceneError(pinScene("\"ring\": -1", "\"ring\": -1, \"vertices\": [3]")),
+            "test.json: objects[0].pin_groups[0]: give exactly one of 'vertices', 'ring'");
+  EXPECT_EQ(sceneError(pinScene("\"vertices\": [30, 31]", "\"vertices\": [30, 1]")),
+            "test.json: objects[0].pin_groups[1]: vertex 1 is already held by a pin");
+  EXPECT_EQ(sceneError(pinScene("\"vertices\": [30, 31]", "\"vertices\": [30, 66]")),
+            "test.json: objects[0].pin_groups[1]: vertex 66 is already held by pin group 0");
+  EXPECT_EQ(sceneError(R"({"objects": [{"type": "cloth", "pin_groups": [{"vertices": [0],
+                                          "motion": {"pivot": [0, 1, 0]}}],
+                                        "shape": {"grid": {"resolution": [4, 4]}}}]})"),
+            "test.json: objects[0].pin_groups[0].motion: give keyframes or a bend with non-zero "
+            "degrees_per_meter");
+  EXPECT_EQ(sceneError(R"({"objects": [{"type": "cloth", "pin_groups": [{"vertices": [0]}],
+                                        "shape": {"grid": {"resolution": [4, 4]}}}]})"),
+            "test.json: objects[0].pin_groups[0]: missing 'motion' (vertices held still are "
+            "'pins')");
+  EXPECT_EQ(sceneError(R"({"objects": [{"type": "cloth", "pin_groups": [{"ring": 0,
+                                          "motion": {"keyframes": [{"time": 0}]}}],
+                                        "shape": {"grid": {"resolution": [4, 4]}}}]})"),
+            "test.json: objects[0].pin_groups[0].ring: only a tube shape has rings");
+  EXPECT_EQ(sceneError(R"({"objects": [{"type": "cloth", "pin_groups": [],
+                                        "shape": {"grid": {"resolution": [4, 4]}}}]})"),
+            "test.json: objects[0].pin_groups: expected a non-empty list of {\"vertices\" or "
+            "\"ring\", \"motion\"}");
+  EXPECT_EQ(sceneError(R"({"objects": [{"type": "collider", "pin_groups": [{"vertices": [0],
+                                          "motion": {"keyframes": [{"time": 0}]}}],
+                                        "shape": {"grid": {"resolution": [4, 4]}}}]})"),
+            "test.json: objects[0].pin_groups: a collider takes no pin groups (its motion moves "
+            "all of it)");
 }
 
 }  // namespace

@@ -2,8 +2,10 @@
 // line, exit code 2 and no output files; a good run writes its stats, meshes and picture.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -12,6 +14,7 @@
 #include "engine/app/cli.h"
 #include "nucleon/mesh_io.h"
 #include "nucleon/scene.h"
+#include "nucleon/shapes.h"
 
 using namespace nucleon;
 namespace fs = std::filesystem;
@@ -117,6 +120,95 @@ TEST(Scene, ErrorsNameTheProblem) {
   expectError(R"({"objects": [{"type": "particles", "shape": {"points": [[0,0,0]]},
                  "material": {"mass": 0}}]})",
               "mass");
+  expectError(R"({"objects": [{"type": "cloth", "shape": {"tube": {"resolution": [2, 4]}}}]})",
+              "shape.tube.resolution: expected whole numbers [around ≥ 3, along ≥ 2]");
+  expectError(R"({"objects": [{"type": "cloth", "shape": {"tube": {"axis": [0, 0, 0]}}}]})",
+              "shape.tube.axis: must not be zero");
+  expectError(R"({"objects": [{"type": "cloth", "shape": {"tube": {"radius_top": 0}}}]})",
+              "shape.tube.radius_top: must be in");
+  expectError(R"({"objects": [{"type": "cloth", "shape": {"tube": {"radius": 1, "height": 2}}}]})",
+              "unknown key 'height'");
+  expectError(R"({"objects": [{"type": "cloth", "shape": {"tube": {}},
+                 "pin_groups": [{"ring": 40, "motion": {"keyframes": [{"time": 0}]}}]}]})",
+              "objects[0].pin_groups[0].ring: must be in [-32, 31], got 40");
+  expectError(R"({"objects": [{"type": "cloth", "shape": {"tube": {}},
+                 "pin_groups": [{"vertices": [], "motion": {"keyframes": [{"time": 0}]}}]}]})",
+              "objects[0].pin_groups[0].vertices: expected a non-empty list");
+  expectError(R"({"objects": [{"type": "cloth", "shape": {"tube": {}},
+                 "pin_groups": [{"vertices": [5000], "motion": {"keyframes": [{"time": 0}]}}]}]})",
+              "vertex 5000 is out of range");
+  expectError(
+      R"({"objects": [{"type": "cloth", "shape": {"tube": {}},
+                 "pin_groups": [{"ring": 0, "motion": {"loop": true}}]}]})",
+      "objects[0].pin_groups[0].motion.loop: a looping motion needs at least two keyframes");
+  expectError(R"({"objects": [{"type": "cloth", "shape": {"tube": {}},
+                 "pin_groups": [{"ring": 0, "motion": {}}]}]})",
+              "objects[0].pin_groups[0].motion: give keyframes or a bend");
+}
+
+// The tube shape: rings of `around` vertices in order along the axis, the seam closed (no
+// repeated vertex), every triangle facing outwards, the only boundary the two end rings; a cone
+// when the radii differ; with caps, a closed surface.
+TEST(Shapes, TubeIsAnOpenCylinderWithAClosedSeam) {
+  TubeSpec spec;
+  spec.resolution = {12, 5};
+  spec.center = Vec3(1, 2, 3);
+  spec.axis = Vec3(0, 0, 2);  // any length
+  spec.length = 2;
+  spec.radiusBottom = Real(0.5);
+  spec.radiusTop = Real(0.25);
+  const ObjectDef def = tube(spec);
+  ASSERT_EQ(def.vertices.size(), 60u);
+  EXPECT_EQ(def.triangles.size(), 2u * 12 * 4);
+  for (int k = 0; k < 5; ++k)
+    for (int j = 0; j < 12; ++j) {
+      const Vec3 r = def.vertices[k * 12 + j] - spec.center;
+      EXPECT_NEAR(r.z(), -1 + 0.5 * k, 1e-6) << "ring " << k;
+      EXPECT_NEAR(std::hypot(r.x(), r.y()), 0.5 - 0.0625 * k, 1e-6) << "ring " << k;
+      // Right-handed about +z from +x (the world axis least aligned with z, the first in a tie).
+      const double angle = std::atan2(r.y(), r.x());
+      EXPECT_NEAR(std::remainder(angle - 2 * std::numbers::pi * j / 12, 2 * std::numbers::pi), 0,
+                  1e-6)
+          << "ring " << k << ", vertex " << j;
+    }
+  for (std::size_t a = 0; a < def.vertices.size(); ++a)
+    for (std::size_t b = a + 1; b < def.vertices.size(); ++b)
+      EXPECT_GT((def.vertices[a] - def.vertices[b]).norm(), 0.1) << "no duplicate vertices";
+  const SimplicialComplex c = buildFromTriangles(def.vertices.size(), def.triangles);
+  EXPECT_EQ(c.report.inconsistentOrientation, 0u);
+  EXPECT_EQ(c.report.nonManifoldFaces, 0u);
+  EXPECT_EQ(c.boundaryEdges().size(), 24u) << "only the two end rings are open";
+  for (const auto& [a, b, t] : def.triangles) {
+    const Vec3 n = (def.vertices[b] - def.vertices[a]).cross(def.vertices[t] - def.vertices[a]);
+    Vec3 out = (def.vertices[a] + def.vertices[b] + def.vertices[t]) / 3 - spec.center;
+    out.z() = 0;
+    EXPECT_GT(n.dot(out), 0) << "faces outwards";
+  }
+  spec.caps = true;
+  const ObjectDef capped = tube(spec);
+  EXPECT_EQ(capped.vertices.size(), 62u);
+  EXPECT_NEAR((capped.vertices[60] - spec.center).z(), -1, 1e-6);
+  EXPECT_NEAR((capped.vertices[61] - spec.center).z(), 1, 1e-6);
+  const SimplicialComplex closed = buildFromTriangles(capped.vertices.size(), capped.triangles);
+  EXPECT_TRUE(closed.boundaryEdges().empty());
+  EXPECT_EQ(closed.report.inconsistentOrientation, 0u);
+  spec.radiusTop = 0;
+  EXPECT_THROW(tube(spec), std::invalid_argument);
+}
+
+TEST(Scene, ReadsATube) {
+  const Scene scene = parseScene(R"({"objects": [{"type": "cloth", "shape": {"tube": {
+      "center": [0, 1, 0], "axis": [1, 0, 0], "length": 0.6, "radius": 0.2, "radius_top": 0.1,
+      "resolution": [8, 4]}}}]})",
+                                 "test.json", ".");
+  const ObjectDef& def = scene.objects.at(0).def;
+  ASSERT_EQ(def.vertices.size(), 32u);
+  EXPECT_NEAR(def.vertices[0].x(), -0.3, 1e-6);  // ring 0 at the −axis end
+  EXPECT_NEAR(def.vertices[0].y(), 1.2, 1e-6);   // vertex 0 on +y: the axis is x
+  EXPECT_NEAR(def.vertices[24].x(), 0.3, 1e-6);  // the last ring
+  EXPECT_NEAR(def.vertices[24].y(), 1.1, 1e-6);  // radius_top
+  const World world = buildWorld(scene);
+  EXPECT_EQ(world.particleCount(), 32u);
 }
 
 TEST(Scene, ObjLoaderReportsMissingFilesAndBadFaces) {

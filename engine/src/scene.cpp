@@ -160,14 +160,48 @@ class Reader {
   const std::string& label_;
 };
 
-ObjectDef readShape(const Reader& shape, const std::string& folder) {
-  shape.allowOnly({"grid", "polyline", "icosphere", "tet_box", "obj", "mesh", "points"});
+// A direction given as a vector of any non-zero length.
+Vec3d readDirection(const Reader& r, const char* key, const Vec3d& fallback) {
+  const Vec3d v = r.vec3d(key, fallback);
+  if (!(v.norm() > 1e-12)) r.fail(r.at(key), "must not be zero");
+  return v;
+}
+
+// The rings of a tube shape, which pin groups can name: ring k is the vertices k·around …
+// k·around + around − 1 (TubeSpec in nucleon/shapes.h). count = 0 for other shapes.
+struct Rings {
+  int around = 0;
+  int count = 0;
+};
+
+ObjectDef readShape(const Reader& shape, const std::string& folder, Rings& rings) {
+  shape.allowOnly({"grid", "polyline", "icosphere", "tube", "tet_box", "obj", "mesh", "points"});
   int given = 0;
-  for (const char* k : {"grid", "polyline", "icosphere", "tet_box", "obj", "mesh", "points"})
+  for (const char* k :
+       {"grid", "polyline", "icosphere", "tube", "tet_box", "obj", "mesh", "points"})
     given += shape.has(k);
   if (given != 1)
-    shape.fail("give exactly one of grid, polyline, icosphere, tet_box, obj, mesh, points");
+    shape.fail("give exactly one of grid, polyline, icosphere, tube, tet_box, obj, mesh, points");
   try {
+    if (shape.has("tube")) {
+      const Reader t = shape.child("tube");
+      t.allowOnly({"center", "axis", "length", "radius", "radius_bottom", "radius_top",
+                   "resolution", "caps"});
+      TubeSpec spec;
+      spec.center = t.vec3("center", spec.center);
+      spec.axis = readDirection(t, "axis", spec.axis.cast<double>()).cast<Real>();
+      spec.length = static_cast<Real>(t.number("length", spec.length, 1e-6, 1e6));
+      const double radius = t.number("radius", spec.radiusTop, 1e-6, 1e6);
+      spec.radiusBottom = static_cast<Real>(t.number("radius_bottom", radius, 1e-6, 1e6));
+      spec.radiusTop = static_cast<Real>(t.number("radius_top", radius, 1e-6, 1e6));
+      const auto res = t.numbers<2>("resolution", {48, 32}, 2, 100000);
+      if (res[0] < 3 || res[0] != std::floor(res[0]) || res[1] != std::floor(res[1]))
+        t.fail(t.at("resolution"), "expected whole numbers [around ≥ 3, along ≥ 2]");
+      spec.resolution = {static_cast<int>(res[0]), static_cast<int>(res[1])};
+      spec.caps = t.boolean("caps", false);
+      rings = {spec.resolution[0], spec.resolution[1]};
+      return tube(spec);
+    }
     if (shape.has("grid")) {
       const Reader g = shape.child("grid");
       g.allowOnly({"resolution", "size", "center", "vertical"});
@@ -247,13 +281,6 @@ void readSurface(const Reader& r, Real& thickness, Real& friction, Real& staticF
       static_cast<Real>(r.number("static_friction", std::max(staticFriction, friction), 0, 10));
 }
 
-// A direction given as a vector of any non-zero length.
-Vec3d readDirection(const Reader& r, const char* key, const Vec3d& fallback) {
-  const Vec3d v = r.vec3d(key, fallback);
-  if (!(v.norm() > 1e-12)) r.fail(r.at(key), "must not be zero");
-  return v;
-}
-
 // "motion": {"pivot", "keyframes": [{"time", "translation", "axis", "degrees"}, ...], "loop",
 // "bend": {"axis", "along", "degrees_per_meter", "frequency"}}. The checks the world makes again
 // are made here too, so that the error names the JSON path.
@@ -311,9 +338,74 @@ ColliderMotion readMotion(const Reader& m) {
   return out;
 }
 
-SceneObject readObject(const Reader& o, const std::string& folder) {
-  o.allowOnly(
-      {"type", "name", "shape", "material", "pins", "velocity", "offset", "schedule", "motion"});
+// "pin_groups": [{"vertices": [i, ...] or "ring": k, "motion": {...} or "NAME"}, ...]: pinned
+// vertices moved by a motion (PinGroup in nucleon/object_def.h). A ring names a tube's ring,
+// counted from the last with a negative k; a motion given by name is a copy of the motion of the
+// animated collider of that name listed earlier, so that pins ride on a body exactly. The checks
+// the world makes again are made here too, so that the error names the JSON path.
+void readPinGroups(const Reader& o, ObjectKind kind, const Rings& rings,
+                   const std::vector<SceneObject>& earlier, ObjectDef& def) {
+  if (kind == ObjectKind::Collider)
+    o.fail(o.at("pin_groups"), "a collider takes no pin groups (its motion moves all of it)");
+  const Json& list = o.raw("pin_groups");
+  if (!list.is_array() || list.empty())
+    o.fail(o.at("pin_groups"),
+           "expected a non-empty list of {\"vertices\" or \"ring\", \"motion\"}");
+  const std::size_t n = def.vertices.size();
+  std::vector<std::string> owner(n);  // per vertex: "" or what holds it already
+  for (Index pin : def.pins) owner[pin] = "a pin";
+  for (std::size_t g = 0; g < list.size(); ++g) {
+    const Reader r(list[g], o.at("pin_groups") + "[" + std::to_string(g) + "]", o.label());
+    r.allowOnly({"vertices", "ring", "motion"});
+    if (r.has("vertices") == r.has("ring")) r.fail("give exactly one of 'vertices', 'ring'");
+    PinGroup group;
+    if (r.has("ring")) {
+      if (rings.count == 0) r.fail(r.at("ring"), "only a tube shape has rings");
+      int k = r.integer("ring", 0, -rings.count, rings.count - 1);
+      if (k < 0) k += rings.count;
+      for (int j = 0; j < rings.around; ++j)
+        group.vertices.push_back(static_cast<Index>(k * rings.around + j));
+    } else {
+      const Json& vertices = r.raw("vertices");
+      if (!vertices.is_array() || vertices.empty())
+        r.fail(r.at("vertices"), "expected a non-empty list of vertex indices");
+      for (const Json& v : vertices) {
+        const Index vertex = r.toIndex(v, r.at("vertices"));
+        if (vertex >= n)
+          r.fail(r.at("vertices"), "vertex " + std::to_string(vertex) +
+                                       " is out of range (the shape has " + std::to_string(n) +
+                                       " vertices)");
+        group.vertices.push_back(vertex);
+      }
+    }
+    const std::string self = "pin group " + std::to_string(g);
+    for (Index v : group.vertices) {
+      if (!owner[v].empty())
+        r.fail("vertex " + std::to_string(v) + " is already held by " + owner[v]);
+      owner[v] = self;
+    }
+    if (!r.has("motion")) r.fail("missing 'motion' (vertices held still are 'pins')");
+    if (r.raw("motion").is_string()) {  // the motion of a collider given earlier
+      const std::string name = r.raw("motion").get<std::string>();
+      const auto found = std::find_if(earlier.begin(), earlier.end(), [&](const SceneObject& e) {
+        return e.kind == ObjectKind::Collider && !name.empty() && e.def.name == name &&
+               e.def.motion.animated();
+      });
+      if (found == earlier.end())
+        r.fail(r.at("motion"), "no animated collider named '" + name + "' before this object");
+      group.motion = found->def.motion;
+    } else {
+      group.motion = readMotion(r.child("motion"));
+    }
+    def.pinGroups.push_back(std::move(group));
+  }
+}
+
+// `earlier`: the objects listed before this one, whose motions pin groups may name.
+SceneObject readObject(const Reader& o, const std::string& folder,
+                       const std::vector<SceneObject>& earlier) {
+  o.allowOnly({"type", "name", "shape", "material", "pins", "pin_groups", "velocity", "offset",
+               "schedule", "motion"});
   SceneObject out;
   const std::string type = o.string("type", "");
   if (type == "cloth")
@@ -329,7 +421,8 @@ SceneObject readObject(const Reader& o, const std::string& folder) {
   else
     o.fail(o.at("type"), "expected cloth, rope, solid, particles or collider, got '" + type + "'");
   if (!o.has("shape")) o.fail("missing 'shape'");
-  out.def = readShape(o.child("shape"), folder);
+  Rings rings;
+  out.def = readShape(o.child("shape"), folder, rings);
   out.def.name = o.string("name", "");
   const Vec3 offset = o.vec3("offset", Vec3::Zero());
   for (Vec3& v : out.def.vertices) v += offset;
@@ -345,8 +438,8 @@ SceneObject readObject(const Reader& o, const std::string& folder) {
     const Reader m = o.child("material");
     m.allowOnly({"mass", "stretch_compliance", "compression_compliance", "bend_compliance",
                  "shear_compliance", "twist_compliance", "volume_compliance", "damping",
-                 "thickness", "tethers", "collide", "self_collision", "friction",
-                 "static_friction", "restitution", "stickiness"});
+                 "thickness", "tethers", "collide", "self_collision", "friction", "static_friction",
+                 "restitution", "stickiness"});
     Material& mat = out.def.material;
     mat.mass = static_cast<Real>(m.number("mass", mat.mass, 1e-9, 1e9));
     mat.stretchCompliance =
@@ -401,6 +494,7 @@ SceneObject readObject(const Reader& o, const std::string& folder) {
       out.def.pins.push_back(pin);
     }
   }
+  if (o.has("pin_groups")) readPinGroups(o, out.kind, rings, earlier, out.def);
   return out;
 }
 
@@ -493,8 +587,9 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
   if (!top.has("objects") || !j.at("objects").is_array() || j.at("objects").empty())
     top.fail("objects", "expected a non-empty list of objects");
   for (std::size_t i = 0; i < j.at("objects").size(); ++i)
-    scene.objects.push_back(readObject(
-        Reader(j.at("objects")[i], "objects[" + std::to_string(i) + "]", label), folder));
+    scene.objects.push_back(
+        readObject(Reader(j.at("objects")[i], "objects[" + std::to_string(i) + "]", label), folder,
+                   scene.objects));
   return scene;
 }
 

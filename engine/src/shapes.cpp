@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <map>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 
@@ -98,6 +99,67 @@ ObjectDef icosphere(const Vec3& center, Real radius, int subdivisions) {
   ObjectDef def;
   for (const auto& p : v) def.vertices.push_back(center + (radius * p).cast<Real>());
   def.triangles = std::move(f);
+  return def;
+}
+
+ObjectDef tube(const TubeSpec& spec) {
+  const int around = spec.resolution[0], rings = spec.resolution[1];
+  require(around >= 3 && around <= 100000 && rings >= 2 && rings <= 100000 &&
+              static_cast<long long>(around) * rings <= 100000000,
+          "tube resolution must be in [3, 100000] vertices around and [2, 100000] rings along, "
+          "1e8 vertices at most");
+  require(std::isfinite(spec.length) && spec.length > 0, "tube length must be positive and finite");
+  require(std::isfinite(spec.radiusBottom) && spec.radiusBottom > 0 &&
+              std::isfinite(spec.radiusTop) && spec.radiusTop > 0,
+          "tube radii must be positive and finite");
+  require(spec.center.allFinite(), "tube center must be finite");
+  const Vec3d axisD = spec.axis.cast<double>();
+  require(axisD.allFinite() && axisD.norm() > 1e-12, "tube axis must be finite and not zero");
+  const Vec3d axis = axisD.normalized();
+  // The reference direction of vertex 0: the world axis least aligned with `axis` (the first in
+  // a tie), made perpendicular to it.
+  int least = 0;
+  for (int k = 1; k < 3; ++k)
+    if (std::abs(axis[k]) < std::abs(axis[least])) least = k;
+  const Vec3d u = (Vec3d::Unit(least) - axis[least] * axis).normalized();
+  const Vec3d v = axis.cross(u);
+  const Vec3d center = spec.center.cast<double>();
+  const double length = spec.length;
+  ObjectDef def;
+  def.vertices.reserve(static_cast<std::size_t>(around) * rings + (spec.caps ? 2 : 0));
+  for (int k = 0; k < rings; ++k) {
+    const double f = double(k) / double(rings - 1);
+    const double radius = (1 - f) * double(spec.radiusBottom) + f * double(spec.radiusTop);
+    const Vec3d ringCenter = center + (f - 0.5) * length * axis;
+    for (int j = 0; j < around; ++j) {
+      const double phi = 2 * std::numbers::pi * double(j) / double(around);
+      def.vertices.push_back(
+          (ringCenter + radius * (std::cos(phi) * u + std::sin(phi) * v)).cast<Real>());
+    }
+  }
+  auto at = [&](int k, int j) { return static_cast<Index>(k * around + (j % around)); };
+  for (int k = 0; k + 1 < rings; ++k)
+    for (int j = 0; j < around; ++j) {
+      const Index a = at(k, j), b = at(k, j + 1), c = at(k + 1, j), d = at(k + 1, j + 1);
+      // b follows a round the axis (right-handed), c is above a along it: (b − a) × (c − a)
+      // points outwards.
+      if ((j + k) % 2 == 0) {
+        def.triangles.push_back({a, b, d});
+        def.triangles.push_back({a, d, c});
+      } else {
+        def.triangles.push_back({a, b, c});
+        def.triangles.push_back({b, d, c});
+      }
+    }
+  if (spec.caps) {
+    const Index bottom = static_cast<Index>(around * rings), top = bottom + 1;
+    def.vertices.push_back((center - 0.5 * length * axis).cast<Real>());
+    def.vertices.push_back((center + 0.5 * length * axis).cast<Real>());
+    for (int j = 0; j < around; ++j) {
+      def.triangles.push_back({bottom, at(0, j + 1), at(0, j)});               // facing −axis
+      def.triangles.push_back({top, at(rings - 1, j), at(rings - 1, j + 1)});  // facing +axis
+    }
+  }
   return def;
 }
 

@@ -78,12 +78,8 @@ Vec3d direction(const Vec3d& axis) {
   return length > 1e-12 && std::isfinite(length) ? Vec3d(axis / length) : Vec3d::Zero();
 }
 
-void validateMotion(const ObjectDef& def, ObjectKind kind, const std::string& what) {
-  const ColliderMotion& m = def.motion;
-  if (!m.animated()) return;
-  require(kind == ObjectKind::Collider, what + ": only colliders can have a motion");
-  require(def.velocity == Vec3::Zero(),
-          what + ": a collider with a motion takes no velocity (the motion sets it)");
+// The fields of an animated motion (a collider's or a pin group's); `what` names its owner.
+void validateMotionFields(const ColliderMotion& m, const std::string& what) {
   // Bounded like the other colliders' coordinates, so that posed positions stay finite in Real.
   require(m.pivot.allFinite() && m.pivot.cwiseAbs().maxCoeff() < 1e9,
           what + ": motion pivot must be finite and within 1e9 m");
@@ -124,6 +120,43 @@ void validateMotion(const ObjectDef& def, ObjectKind kind, const std::string& wh
   require(std::abs(axis.dot(along)) < 1e-6, what + ": bend axis and along must be perpendicular");
 }
 
+void validateMotion(const ObjectDef& def, ObjectKind kind, const std::string& what) {
+  const ColliderMotion& m = def.motion;
+  if (!m.animated()) return;
+  require(kind == ObjectKind::Collider, what + ": only colliders can have a motion");
+  require(def.velocity == Vec3::Zero(),
+          what + ": a collider with a motion takes no velocity (the motion sets it)");
+  validateMotionFields(m, what);
+}
+
+// Animated pins (ARCHITECTURE.md §4): each group non-empty, its vertices in range and in no other
+// group nor among the still pins, its motion animated and valid.
+void validatePinGroups(const ObjectDef& def, ObjectKind kind, const std::string& what) {
+  if (def.pinGroups.empty()) return;
+  require(kind != ObjectKind::Collider,
+          what + ": a collider takes no pin groups (its motion moves all of it)");
+  constexpr int kStill = -1, kFree = -2;
+  std::vector<int> owner(def.vertices.size(), kFree);  // per vertex: its group, kStill, kFree
+  for (Index pin : def.pins) owner[pin] = kStill;
+  for (std::size_t g = 0; g < def.pinGroups.size(); ++g) {
+    const PinGroup& group = def.pinGroups[g];
+    const std::string name = what + ": pin group " + std::to_string(g);
+    require(!group.vertices.empty(), name + " has no vertices");
+    for (Index v : group.vertices) {
+      require(v < def.vertices.size(), name + ": vertex " + std::to_string(v) +
+                                           " is out of range (the object has " +
+                                           std::to_string(def.vertices.size()) + " vertices)");
+      require(owner[v] != kStill, name + ": vertex " + std::to_string(v) + " is also a still pin");
+      require(owner[v] == kFree, name + ": vertex " + std::to_string(v) + " is also in pin group " +
+                                     std::to_string(owner[v]));
+      owner[v] = static_cast<int>(g);
+    }
+    require(group.motion.animated(),
+            name + " has no motion: give keyframes or a bend (still vertices are pins)");
+    validateMotionFields(group.motion, name);
+  }
+}
+
 KinematicTrack makeTrack(const ColliderMotion& m, Index object, Index first, Index count) {
   KinematicTrack track;
   track.object = object;
@@ -139,6 +172,14 @@ KinematicTrack makeTrack(const ColliderMotion& m, Index object, Index first, Ind
   track.bend = m.bend;
   track.bend.axis = direction(m.bend.axis);
   track.bend.along = direction(m.bend.along);
+  return track;
+}
+
+// The track of a pin group of the object whose particles start at `first`.
+KinematicTrack makePinTrack(const PinGroup& group, Index object, Index first) {
+  KinematicTrack track =
+      makeTrack(group.motion, object, first, static_cast<Index>(group.vertices.size()));
+  for (Index v : group.vertices) track.particles.push_back(first + v);
   return track;
 }
 
@@ -221,6 +262,7 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
       (def.name.empty() ? "object" + std::to_string(s.objects.size()) : def.name) + "'";
   validateCommon(def, what);
   validateMotion(def, kind, what);
+  validatePinGroups(def, kind, what);
   const std::size_t n = def.vertices.size();
 
   ObjectRecord record;
@@ -293,13 +335,30 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
                   std::span<Vec3>(particles.x).subspan(first, n));
     appendTrack(s.kinematics, std::move(track));
   }
+  // Animated pins: held like pins, moved by their group's track, and posed now like a collider.
+  std::vector<Index> held = def.pins;
+  for (const PinGroup& group : def.pinGroups) {
+    KinematicTrack track = makePinTrack(group, static_cast<Index>(s.objects.size()), first);
+    std::vector<Vec3> rest, posed(group.vertices.size());
+    for (Index v : group.vertices) {
+      particles.w[first + v] = 0;
+      particles.v[first + v].setZero();
+      rest.push_back(def.vertices[v]);
+      held.push_back(v);
+    }
+    posePositions(track, rest, s.time, posed);
+    for (std::size_t i = 0; i < posed.size(); ++i) particles.x[track.particle(i)] = posed[i];
+    appendTrack(s.kinematics, std::move(track));
+  }
   particles.p.assign(particles.x.begin(), particles.x.end());
   record.firstParticle = first;
   record.particleCount = static_cast<Index>(n);
   if (record.closed)
     record.restVolume = enclosedVolume(record.surface, particles.x, record.firstParticle);
 
-  appendObjectConstraints(s.constraints, kind, c, def.vertices, def.pins, first, def.material);
+  // Tethers hold free vertices to animated pins too: a tether only bounds the distance to its pin
+  // by the rest path length along the mesh, which an inextensible cloth keeps wherever the pin is.
+  appendObjectConstraints(s.constraints, kind, c, def.vertices, held, first, def.material);
   record.schedule = def.schedule;
 
   s.objects.push_back(std::move(record));

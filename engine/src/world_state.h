@@ -47,7 +47,7 @@ struct WorldState {
   CandidatePairs candidates;
   PrimitiveContactPool primitiveContacts;
   CollisionReport collisionReport;
-  KinematicTracks kinematics;   // static lifetime: one track per animated collider
+  KinematicTracks kinematics;   // static lifetime: one track per animated collider or pin group
   bool topologyDirty = true;    // incidence, coloring and plan need rebuilding
   Recoveries recoveries;        // repairs since creation
   std::uint64_t stepCount = 0;  // steps taken since creation

@@ -43,17 +43,28 @@ struct BendMotion {
   double frequency = 0;          // Hz, positive when curvature is not 0
 };
 
-// How a collider is animated. Its vertex positions at time t are the rest vertices bent by
-// `bend`, then turned and moved by the keyframed pose (translation linear, rotation by slerp
-// between keyframes, taking the shorter way round: a turn of half a revolution or more needs
-// keyframes in between). Before the first keyframe the first is held, after the last the last
-// (or, with `loop`, the keyframes repeat with period last.time − first.time).
+// How a collider, or a group of pins (PinGroup), is animated. Its vertex positions at time t are
+// the rest vertices bent by `bend`, then turned and moved by the keyframed pose (translation
+// linear, rotation by slerp between keyframes, taking the shorter way round: a turn of half a
+// revolution or more needs keyframes in between). Before the first keyframe the first is held,
+// after the last the last (or, with `loop`, the keyframes repeat with period last.time −
+// first.time).
 struct ColliderMotion {
   Vec3d pivot = Vec3d::Zero();
   std::vector<Keyframe> keyframes;  // strictly increasing times
   bool loop = false;
   BendMotion bend;
   bool animated() const { return !keyframes.empty() || bend.curvature != 0; }
+};
+
+// Pinned vertices of a cloth, rope, solid or particle cloud that follow a motion exactly as an
+// animated collider's vertices do (ARCHITECTURE.md §4): at the end of every substep each is where
+// `motion` puts its rest position at that time, and over the substep it moves in a straight line.
+// They have inverse mass 0, like pins; the rest of the object follows them through its
+// constraints and collides with them as with any kinematic primitive.
+struct PinGroup {
+  std::vector<Index> vertices;  // non-empty, distinct, in no other group and not in `pins`
+  ColliderMotion motion;        // keyframes, a bend or both (animated() is true)
 };
 
 // An object defined by its rest shape. The simplices index `vertices`.
@@ -64,7 +75,10 @@ struct ObjectDef {
   std::vector<std::array<Index, 3>> triangles;  // cloth, colliders
   std::vector<std::array<Index, 4>> tets;       // soft solids
   Material material;
-  std::vector<Index> pins;       // vertices held in place (inverse mass 0)
+  std::vector<Index> pins;  // vertices held in place (inverse mass 0)
+  // Not colliders: groups of pinned vertices, each moved by its own motion. Like a collider's
+  // motion, it is evaluated at the world's time when the object is added.
+  std::vector<PinGroup> pinGroups;
   Vec3 velocity = Vec3::Zero();  // initial velocity; for a kinematic collider, its constant motion
   // Colliders only: an animation that replaces the constant velocity (which must then be zero).
   ColliderMotion motion;

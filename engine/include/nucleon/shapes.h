@@ -26,6 +26,28 @@ ObjectDef polylineRope(const std::vector<Vec3>& points);
 // A closed sphere from a subdivided icosahedron, triangles facing outwards.
 ObjectDef icosphere(const Vec3& center, Real radius, int subdivisions);
 
+// An open cylinder of cloth triangles about `axis`, or a truncated cone when the two radii differ.
+// Ring k (0 ≤ k < resolution[1]) is the circle at center + (k / (rings − 1) − ½) · length · axis:
+// ring 0 at the −axis end ("bottom"), the last ring at the +axis end ("top"), its radius going
+// linearly from radiusBottom to radiusTop. Ring k is the vertices k·around … k·around + around − 1;
+// vertex j of a ring is at angle 2πj/around right-handed about the axis, from the direction of the
+// world axis (x, then y, then z) least aligned with `axis` made perpendicular to it: +x for the
+// default axis y. The seam is closed (ring vertices are shared all the way round, none repeated),
+// triangles face outwards and quads are split along alternating diagonals, as in gridCloth. With
+// `caps`, two more vertices, the bottom centre (index around·rings) and the top centre (that plus
+// one), close the ends with fans of outward triangles, so the surface bounds a volume (a collider
+// body).
+struct TubeSpec {
+  Vec3 center = Vec3(0, 1, 0);
+  Vec3 axis = Vec3(0, 1, 0);                 // any non-zero length; only its direction counts
+  Real length = 1;                           // m, between the end rings
+  Real radiusBottom = Real(0.25);            // m, ring 0
+  Real radiusTop = Real(0.25);               // m, the last ring
+  std::array<int, 2> resolution = {48, 32};  // vertices around (≥ 3), rings along (≥ 2)
+  bool caps = false;
+};
+ObjectDef tube(const TubeSpec& spec);
+
 // A box of cells[0]×cells[1]×cells[2] cubes, each split into six positively oriented tets that
 // share the cube's main diagonal (a conforming mesh: neighbouring cubes agree on shared faces).
 ObjectDef tetBox(const Vec3& center, const Vec3& size, const std::array<int, 3>& cells);
