@@ -317,6 +317,19 @@ void predictMotionBounds(CandidatePairs& pairs, std::span<const Vec3> x, std::sp
                     });
 }
 
+void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start,
+                     std::span<const Vec3> end) {
+  pairs.boundLower.resize(start.size());
+  pairs.boundUpper.resize(start.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, start.size(), kBoxGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        pairs.boundLower[i] = start[i].cwiseMin(end[i]);
+                        pairs.boundUpper[i] = start[i].cwiseMax(end[i]);
+                      }
+                    });
+}
+
 void growParticleBounds(CandidatePairs& pairs, Real margin) {
   const Real slack = kBoundSlackFraction * margin;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.boundLower.size(), kBoxGrain),

@@ -75,6 +75,9 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
 void predictMotionBounds(CandidatePairs& pairs, std::span<const Vec3> x, std::span<const Vec3> p,
                          std::span<const Real> w, const Vec3& g, Real h, int remaining);
 
+// Each particle's motion box: the box of its positions in `start` and `end`.
+void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::span<const Vec3> end);
+
 // How far (as a fraction of the margin) a particle may stray outside its motion box and keep the
 // candidate set complete. The primitives' boxes are grown by radius + margin/2 in double and
 // rounded outward to float; the rest of margin/2 covers the float rounding of the bounds for

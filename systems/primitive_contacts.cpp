@@ -475,6 +475,25 @@ void applyPrimitiveFriction(PrimitiveContactPool& contacts, ParticlePool& partic
   gatherCorrections(contacts, particles, [&](Index c) -> Vec3 { return contacts.tangentStep[c]; });
 }
 
+void measureStartDistances(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
+                           const CollisionPrimitives& primitives, const ParticlePool& particles) {
+  const std::size_t n = candidates.size();
+  contacts.startDistance.resize(n);
+  contacts.suspect.resize(n);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        const PairView v = viewOf(primitives, candidates.kind[i],
+                                                  candidates.first[i], candidates.second[i]);
+                        Vec3d X0[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
+                        for (int k = 0; k < v.count; ++k)
+                          X0[k] = particles.x[v.id[k]].cast<double>();
+                        contacts.startDistance[i] =
+                            combine(closestCoefficients(v.kind, X0), X0, v.count).norm();
+                      }
+                    });
+}
+
 CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
                                 const CollisionPrimitives& primitives, ParticlePool& particles) {
   CrossingReport report;

@@ -60,8 +60,15 @@ struct CrossingReport {
   int rounds = 0;
 };
 
+// The distance of every candidate pair at the start of the substep (particles.x) into
+// contacts.startDistance, for the fail-safe: after the candidates were found again for the
+// solve's actual motion (the ones detectPrimitiveContacts measured belong to the earlier set).
+void measureStartDistances(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
+                           const CollisionPrimitives& primitives, const ParticlePool& particles);
+
 // Keeps the solve's final motion crossing-free (see the header comment): first clamps every free
-// particle into its bounds (CandidatePairs::boundLower/boundUpper), then the CCD rounds.
+// particle into its bounds (CandidatePairs::boundLower/boundUpper; the world finds the pairs again
+// for the actual motion when the solve leaves them, so this only guards), then the CCD rounds.
 CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
                                 const CollisionPrimitives& primitives, ParticlePool& particles);
 

@@ -37,8 +37,10 @@ constexpr std::array<StageDeclaration, kStageCount> kStages = {{
     {"detect collisions", kPositions | kVelocities | kPredicted | kInverseMass | kPrimitives,
      kCandidates | kPrimitiveContacts | kStageProfile},
     // Also the primitive contacts' friction and the crossing fail-safe after the sweeps.
-    {"solve", kPositions | kInverseMass | kColliders | kSweepPlan | kPrimitives | kCandidates,
-     kPredicted | kConstraints | kContacts | kPrimitiveContacts | kRecoveries | kStageProfile},
+    // And finds the candidate pairs again when the solve's motion leaves their bounds.
+    {"solve", kPositions | kInverseMass | kColliders | kSweepPlan | kPrimitives,
+     kPredicted | kConstraints | kContacts | kCandidates | kPrimitiveContacts | kRecoveries |
+         kStageProfile},
     // Also restitution of the primitive contacts, after the velocity update.
     {"update", kPositions | kVelocities | kPredicted | kPrimitiveContacts,
      kPositions | kVelocities | kPredicted | kRecoveries | kStageProfile},
@@ -142,7 +144,7 @@ void StepGraph::runStage(int stage) {
     }
     case kSolve: {
       double contactSeconds = 0;
-      std::size_t missed = 0;
+      std::size_t missed = 0, redetections = 0;
       CrossingReport crossing;
       profile.solve += timed([&] {
         contactSeconds =
@@ -154,12 +156,26 @@ void StepGraph::runStage(int stage) {
         if (s.primitives.total() > 0)
           contactSeconds += timed([&] {
             applyPrimitiveFriction(s.primitiveContacts, s.particles, s.solver.kind);
+            // Contacts and collider responses move particles off their predicted course; where
+            // one leaves its bounds, the pairs of the actual motion x → p are found, rather than
+            // the motion cut back to the bounds (a clamp would hold a particle against the
+            // contact that pushed it, and stretch the cloth around it).
+            if (!withinParticleBounds(s.candidates, s.particles.p)) {
+              findCandidatePairs(s.candidates, s.bvh, s.primitives, s.particles.x, s.particles.p,
+                                 s.particles.w, kPrimitiveContactMargin);
+              setMotionBounds(s.candidates, s.particles.x, s.particles.p);
+              growParticleBounds(s.candidates, kPrimitiveContactMargin);
+              measureStartDistances(s.primitiveContacts, s.candidates, s.primitives, s.particles);
+              ++redetections;
+            }
             crossing =
                 resolveCrossings(s.primitiveContacts, s.candidates, s.primitives, s.particles);
           });
       });
       CollisionReport& report = s.collisionReport;
       report.clampedParticles += crossing.clamped;
+      report.broadPhases += redetections;
+      report.solveRedetections += redetections;
       report.crossings += crossing.crossings;
       report.stoppedParticles += crossing.stopped;
       report.unresolvedPairs += crossing.unresolved;

@@ -48,6 +48,7 @@ struct Recoveries {
 struct CollisionReport {
   std::uint64_t broadPhases = 0;          // broad-phase runs: one per step, plus the refreshes
   std::uint64_t broadPhaseRefreshes = 0;  // runs within a step: a prediction left its bounds
+  std::uint64_t solveRedetections = 0;    // runs after a solve that left the bounds
   std::uint64_t candidatePairs = 0;       // broad-phase pairs, summed over substeps
   std::uint64_t contacts = 0;             // primitive contacts made, summed over substeps
   std::uint64_t clampedParticles = 0;     // particles held within their broad-phase bounds
