@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "nucleon/types.h"
@@ -58,6 +59,13 @@ struct CollisionPrimitives {
   std::size_t edges() const { return edgeParticles.size(); }
   std::size_t triangles() const { return triangleParticles.size(); }
   std::size_t total() const { return points() + edges() + triangles(); }
+  // The smallest radius of any primitive (0 if there is none).
+  Real smallestRadius() const {
+    Real smallest = std::numeric_limits<Real>::infinity();
+    for (const auto* radii : {&pointRadius, &edgeRadius, &triangleRadius})
+      for (Real r : *radii) smallest = std::min(smallest, r);
+    return total() > 0 ? smallest : Real(0);
+  }
 
   static std::uint64_t pairKey(std::uint32_t a, std::uint32_t b) {
     return a < b ? (std::uint64_t{a} << 32 | b) : (std::uint64_t{b} << 32 | a);

@@ -330,8 +330,11 @@ void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start,
                     });
 }
 
-void growParticleBounds(CandidatePairs& pairs, Real margin) {
-  const Real slack = kBoundSlackFraction * margin;
+Real boundSlack(const CollisionPrimitives& primitives, Real margin) {
+  return kBoundSlackFraction * (2 * primitives.smallestRadius() + margin);
+}
+
+void growParticleBounds(CandidatePairs& pairs, Real slack) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.boundLower.size(), kBoxGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {

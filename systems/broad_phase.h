@@ -78,14 +78,18 @@ void predictMotionBounds(CandidatePairs& pairs, std::span<const Vec3> x, std::sp
 // Each particle's motion box: the box of its positions in `start` and `end`.
 void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::span<const Vec3> end);
 
-// How far (as a fraction of the margin) a particle may stray outside its motion box and keep the
-// candidate set complete. The primitives' boxes are grown by radius + margin/2 in double and
-// rounded outward to float; the rest of margin/2 covers the float rounding of the bounds for
-// coordinates up to a few kilometres.
+// How far a particle may stray outside its motion box with no crossing escaping the candidate
+// set: kBoundSlackFraction × (2 r_min + margin), r_min the smallest primitive radius. Two
+// primitives whose boxes are apart are at least r_a + r_b + margin ≥ 2 r_min + margin apart over
+// their particles' motion boxes; if every particle strays at most that slack, they stay at least
+// a tenth of it apart (room for the float rounding of boxes and bounds, for coordinates up to a
+// few kilometres), so they cannot cross. They may come within their contact distance without a
+// contact: the next broad phase, a substep later at most, makes one.
 constexpr Real kBoundSlackFraction = Real(0.45);
+Real boundSlack(const CollisionPrimitives& primitives, Real margin);
 
-// Turns motion boxes into bounds: grows them by kBoundSlackFraction × margin.
-void growParticleBounds(CandidatePairs& pairs, Real margin);
+// Turns motion boxes into bounds: grows them by `slack`.
+void growParticleBounds(CandidatePairs& pairs, Real slack);
 
 // Whether every particle's position in `p` lies inside its bounds. Particles with a non-finite
 // position are left to the update's counted repair and do not count as outside.

@@ -480,18 +480,20 @@ void measureStartDistances(PrimitiveContactPool& contacts, const CandidatePairs&
   const std::size_t n = candidates.size();
   contacts.startDistance.resize(n);
   contacts.suspect.resize(n);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPairGrain),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        const PairView v = viewOf(primitives, candidates.kind[i],
-                                                  candidates.first[i], candidates.second[i]);
-                        Vec3d X0[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
-                        for (int k = 0; k < v.count; ++k)
-                          X0[k] = particles.x[v.id[k]].cast<double>();
-                        contacts.startDistance[i] =
-                            combine(closestCoefficients(v.kind, X0), X0, v.count).norm();
-                      }
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const PairView v =
+              viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
+          Vec3d X0[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
+          for (int k = 0; k < v.count; ++k) X0[k] = particles.x[v.id[k]].cast<double>();
+          // A positive lower bound serves the fail-safe (see makeContact).
+          const double gap = boxDistance(v, X0);
+          contacts.startDistance[i] =
+              gap > 1e-9 ? gap : combine(closestCoefficients(v.kind, X0), X0, v.count).norm();
+        }
+      });
 }
 
 CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidatePairs& candidates,

@@ -34,8 +34,8 @@ struct ObjectRecord;
 
 // How much farther than its contact distance a pair may be and still get a contact (m): the room
 // the sweeps have to move the primitives together after detection. The broad phase inflates
-// boxes by half of it, and the solve keeps every particle inside bounds grown by less
-// (kBoundSlackFraction), so no crossing can escape the candidate set.
+// boxes by half of it beyond the radius, and every particle stays inside bounds that keep
+// primitives with disjoint boxes apart (boundSlack), so no crossing can escape the candidate set.
 constexpr Real kPrimitiveContactMargin = Real(0.005);
 
 // Refills `contacts` from the candidate pairs (x: start of the substep, p: predicted end, v:

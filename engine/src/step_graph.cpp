@@ -131,7 +131,7 @@ void StepGraph::runStage(int stage) {
         // A primitive's box is the box of its particles' motion boxes, which are the two corners.
         findCandidatePairs(pairs, s.bvh, s.primitives, pairs.boundLower, pairs.boundUpper,
                            particles.w, kPrimitiveContactMargin);
-        growParticleBounds(pairs, kPrimitiveContactMargin);
+        growParticleBounds(pairs, boundSlack(s.primitives, kPrimitiveContactMargin));
         ++report.broadPhases;
         if (s.substep > 0) ++report.broadPhaseRefreshes;
       });
@@ -164,7 +164,7 @@ void StepGraph::runStage(int stage) {
               findCandidatePairs(s.candidates, s.bvh, s.primitives, s.particles.x, s.particles.p,
                                  s.particles.w, kPrimitiveContactMargin);
               setMotionBounds(s.candidates, s.particles.x, s.particles.p);
-              growParticleBounds(s.candidates, kPrimitiveContactMargin);
+              growParticleBounds(s.candidates, boundSlack(s.primitives, kPrimitiveContactMargin));
               measureStartDistances(s.primitiveContacts, s.candidates, s.primitives, s.particles);
               ++redetections;
             }
