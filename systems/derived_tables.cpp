@@ -24,7 +24,8 @@ void buildDerivedTables(ConstraintPools& pools, const ParticlePool& particles, S
     // memory and its sweep streams through the constraint columns. Sequential Gauss–Seidel
     // visits the same order through coloring.order (its stable order, constraint_sweeps.h);
     // Jacobi keeps the mesh order, whose neighbouring constraints share particles.
-    if (kind == SolverKind::ColoredGaussSeidel && !pool.coloring.inPlace) {
+    if ((kind == SolverKind::ColoredGaussSeidel || kind == SolverKind::Multigrid) &&
+        !pool.coloring.inPlace) {
       pool.permute(pool.coloring.order);
       std::iota(pool.coloring.order.begin(), pool.coloring.order.end(), Index(0));
       pool.coloring.inPlace = true;

@@ -60,6 +60,8 @@ double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const S
                         ContactPool& contacts, const ColliderPool& colliders,
                         PrimitiveContactPool& primitiveContacts, SolverKind kind, Real h,
                         Real relaxation) {
+  // Multigrid's fine sweeps are colored Gauss–Seidel sweeps (its cascade runs before them).
+  if (kind == SolverKind::Multigrid) kind = SolverKind::ColoredGaussSeidel;
   const bool anyContacts = contacts.size() > 0 || primitiveContacts.size() > 0;
   pools.forEach([](auto& pool) { std::fill(pool.lambda.begin(), pool.lambda.end(), Real(0)); });
   SweepContext context{particles, h, relaxation, nullptr};

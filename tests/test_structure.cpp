@@ -109,8 +109,8 @@ TEST_P(SceneDeterminism, SameStateForOneAndTwoThreads) {
     selfColliding |= o.def.material.selfCollision;
   }
   const int steps = particles > 5000 || selfColliding ? 4 : 30;
-  for (SolverKind kind :
-       {SolverKind::GaussSeidel, SolverKind::Jacobi, SolverKind::ColoredGaussSeidel}) {
+  for (SolverKind kind : {SolverKind::GaussSeidel, SolverKind::Jacobi,
+                          SolverKind::ColoredGaussSeidel, SolverKind::Multigrid}) {
     scene.solver.kind = kind;
     std::uint64_t hashes[2];
     for (int threads : {1, 2}) {

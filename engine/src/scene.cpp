@@ -567,7 +567,7 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
   }
   if (top.has("solver")) {
     const Reader s = top.child("solver");
-    s.allowOnly({"type", "iterations", "substeps", "relaxation", "schedule"});
+    s.allowOnly({"type", "iterations", "substeps", "relaxation", "sweeps_per_level", "schedule"});
     const std::string type = s.string("type", toString(scene.solver.kind));
     if (!parseSolverKind(type, scene.solver.kind))
       s.fail(s.at("type"), "unknown solver '" + type + "'");
@@ -575,6 +575,8 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     scene.solver.substeps = s.integer("substeps", scene.solver.substeps, 1, 10000);
     scene.solver.relaxation =
         static_cast<Real>(s.number("relaxation", scene.solver.relaxation, 0.01, 1.99));
+    scene.solver.sweepsPerLevel =
+        s.integer("sweeps_per_level", scene.solver.sweepsPerLevel, 0, 1000);
     if (s.has("schedule")) {
       if (s.has("iterations"))
         s.fail("give either 'iterations' (every family) or 'schedule' (per family), not both");

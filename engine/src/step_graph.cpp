@@ -6,6 +6,7 @@
 #include "systems/broad_phase.h"
 #include "systems/integrate.h"
 #include "systems/kinematic_motion.h"
+#include "systems/multigrid_cascade.h"
 #include "systems/particle_contacts.h"
 #include "systems/primitive_contacts.h"
 #include "systems/solve_constraints.h"
@@ -144,9 +145,23 @@ void StepGraph::runStage(int stage) {
     }
     case kSolve: {
       double contactSeconds = 0;
-      std::size_t missed = 0, redetections = 0;
+      std::size_t missed = 0, redetections = 0, cascadeProjections = 0;
       CrossingReport crossing;
       profile.solve += timed([&] {
+        if (s.solver.kind == SolverKind::Multigrid) {
+          // Contacts are projected between the cascade's levels as between sweep rounds.
+          auto projectAllContacts = [](void* state) {
+            WorldState& w = *static_cast<WorldState*>(state);
+            if (w.primitiveContacts.size() > 0)
+              projectPrimitiveContacts(w.primitiveContacts, w.particles,
+                                       SolverKind::ColoredGaussSeidel);
+            if (w.contacts.size() > 0)
+              projectContacts(w.contacts, w.colliders, w.particles, SolverKind::ColoredGaussSeidel);
+          };
+          cascadeProjections =
+              runMultigridCascade(s.hierarchies, s.objects, s.particles, s.cascadeStart,
+                                  s.solver.sweepsPerLevel, projectAllContacts, &s);
+        }
         contactSeconds =
             solveConstraints(s.constraints, s.particles, s.plan, s.contacts, s.colliders,
                              s.primitiveContacts, s.solver.kind, h_, s.solver.relaxation);
@@ -183,7 +198,7 @@ void StepGraph::runStage(int stage) {
       // Contacts are projected between sweep rounds: book them as collisions.
       profile.solve -= contactSeconds;
       profile.collisions += contactSeconds;
-      profile.projections += s.plan.projectionsPerSubstep;
+      profile.projections += s.plan.projectionsPerSubstep + cascadeProjections;
       ++profile.substeps;
       logRepairs(s.recoveries, missed, s.recoveries.missedContacts, step_);
       break;

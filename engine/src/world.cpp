@@ -12,6 +12,7 @@
 #include "engine/src/step_graph.h"
 #include "engine/src/world_state.h"
 #include "systems/build_constraints.h"
+#include "systems/build_hierarchy.h"
 #include "systems/collision_primitives_build.h"
 #include "systems/derived_tables.h"
 #include "systems/kinematic_motion.h"
@@ -449,8 +450,8 @@ void World::setSolver(const SolverSettings& settings) {
   require(std::isfinite(settings.relaxation) && settings.relaxation > 0 && settings.relaxation < 2,
           "relaxation must be in (0, 2)");
   validateSchedule(settings.schedule, "solver schedule");
-  require(settings.kind != SolverKind::Multigrid,
-          std::string("solver '") + toString(settings.kind) + "' is not available in this build");
+  require(settings.sweepsPerLevel >= 0 && settings.sweepsPerLevel <= 1000,
+          "sweeps per level must be in [0, 1000]");
   impl_->state.solver = settings;
   impl_->state.topologyDirty = true;  // the sweep plan follows the schedule
 }
@@ -477,6 +478,10 @@ void World::step(double dt) {
   if (s.topologyDirty) {  // derived tables, rebuilt outside the step so a step never allocates
     buildDerivedTables(s.constraints, s.particles, s.solver.kind);
     buildCollisionPrimitives(s.primitives, s.objects, s.excludedObjectPairs);
+    if (s.solver.kind == SolverKind::Multigrid)
+      buildLevelHierarchies(s.hierarchies, s.objects, s.particles);
+    else
+      s.hierarchies.objects.clear();
     s.plan = buildSweepPlan(s.solver, s.objects, s.constraints, s.particles);
     s.topologyDirty = false;
   }

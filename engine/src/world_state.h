@@ -16,6 +16,7 @@
 #include "components/primitive_bvh.h"
 #include "components/primitive_contact_pool.h"
 #include "components/kinematic_tracks.h"
+#include "components/level_hierarchy.h"
 #include "components/objects.h"
 #include "components/particles.h"
 #include "components/sweep_plan.h"
@@ -38,6 +39,10 @@ struct WorldState {
   ColliderPool colliders;       // static lifetime: rebuilt when a collider is added or changed
   ContactPool contacts;         // per-substep lifetime: refilled by contact detection every substep
   SweepPlan plan;               // from solver.schedule and the objects' schedules
+  // The multigrid backend's level hierarchies (static, built with the derived tables when that
+  // backend is chosen) and its cascade's scratch (the positions when the cascade began).
+  LevelHierarchies hierarchies;
+  std::vector<Vec3> cascadeStart;
   // Collisions between primitives (ARCHITECTURE.md §4): the primitive lists (static, rebuilt with
   // the derived tables), the object pairs the API excluded, the broad phase's BVH and candidate
   // pairs and the primitive contacts (per substep), and what the collision stages did.

@@ -20,6 +20,9 @@ struct SolverSettings {
   // Jacobi relaxation ω in (0, 2): each particle moves by ω times the average of its
   // constraints' corrections. Ignored by the Gauss–Seidel backends.
   Real relaxation = 1;
+  // Multigrid: sweeps of each coarse level in the coarse-to-fine cascade that precedes the fine
+  // sweeps of every substep (ARCHITECTURE.md §3).
+  int sweepsPerLevel = 4;
   // Per-family sweep counts and order; empty = every family `iterations` times, in the order
   // stretch, tether, shear, bend, twist, volume.
   Schedule schedule;

@@ -1,0 +1,40 @@
+// The multigrid backend's coarse-to-fine cascade (hierarchical position based dynamics, Müller
+// 2008 §4; ARCHITECTURE.md §3): before the fine sweeps of a substep, each inextensible object's
+// coarser levels are swept as unilateral distance limits, coarsest first, and every level's
+// particles that are not on the next coarser one follow their parents' total displacement since
+// the cascade began. Long-range stretch then travels across the object in a few coarse sweeps
+// instead of one ring per fine sweep; the fine sweeps (colored Gauss–Seidel, every family,
+// contacts) then work on a nearly converged shape.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "components/level_hierarchy.h"
+#include "components/objects.h"
+#include "components/particles.h"
+#include "nucleon/types.h"
+
+namespace nucleon {
+
+// Runs the cascade on particles.p for every hierarchy of at least two levels whose object is
+// inextensible (stretch compliance 0; a soft object's coarse limits would stiffen it), with
+// `sweepsPerLevel` sweeps of each coarse level. `start` is scratch (q, the positions when the
+// cascade began), sized to the particle count. Colors of a level run in sequence, the edges of a
+// color in parallel (no two share a particle), prolongation in parallel per particle: the result
+// does not depend on the thread count. After the sweeps of every level, and after the last
+// prolongation, `afterLevel(context)` is called: the solve projects its contacts there, as it
+// does after every fine sweep round, so that a particle the cascade pulls toward a collider is
+// held by its contact instead of being carried into it. Returns the coarse-edge projections
+// performed.
+using CascadeHook = void (*)(void* context);
+std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
+                                std::span<const ObjectRecord> objects, ParticlePool& particles,
+                                std::vector<Vec3>& start, int sweepsPerLevel,
+                                CascadeHook afterLevel = nullptr, void* context = nullptr);
+
+// The coarse-edge projections one cascade performs (for throughput and work figures).
+std::size_t cascadeProjections(const LevelHierarchies& hierarchies,
+                               std::span<const ObjectRecord> objects, int sweepsPerLevel);
+
+}  // namespace nucleon
