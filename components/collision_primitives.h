@@ -14,7 +14,6 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
-#include <limits>
 #include <vector>
 
 #include "nucleon/types.h"
@@ -59,13 +58,9 @@ struct CollisionPrimitives {
   std::size_t edges() const { return edgeParticles.size(); }
   std::size_t triangles() const { return triangleParticles.size(); }
   std::size_t total() const { return points() + edges() + triangles(); }
-  // The smallest radius of any primitive (0 if there is none).
-  Real smallestRadius() const {
-    Real smallest = std::numeric_limits<Real>::infinity();
-    for (const auto* radii : {&pointRadius, &edgeRadius, &triangleRadius})
-      for (Real r : *radii) smallest = std::min(smallest, r);
-    return total() > 0 ? smallest : Real(0);
-  }
+  // The smallest radius of any primitive (0 if there is none): set with the lists, so that the
+  // broad phase's bounds need no pass over them.
+  Real smallestRadius = 0;
 
   static std::uint64_t pairKey(std::uint32_t a, std::uint32_t b) {
     return a < b ? (std::uint64_t{a} << 32 | b) : (std::uint64_t{b} << 32 | a);
@@ -79,6 +74,7 @@ struct CollisionPrimitives {
     edgeParticles.clear(), edgeRadius.clear(), edgeObject.clear();
     triangleParticles.clear(), triangleRadius.clear(), triangleObject.clear();
     objectSurface.clear(), excludedPairs.clear();
+    smallestRadius = 0;
   }
 };
 

@@ -331,7 +331,7 @@ void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start,
 }
 
 Real boundSlack(const CollisionPrimitives& primitives, Real margin) {
-  return kBoundSlackFraction * (2 * primitives.smallestRadius() + margin);
+  return kBoundSlackFraction * (2 * primitives.smallestRadius + margin);
 }
 
 void growParticleBounds(CandidatePairs& pairs, Real slack) {

@@ -1,6 +1,7 @@
 #include "systems/collision_primitives_build.h"
 
 #include <algorithm>
+#include <limits>
 #include <set>
 
 namespace nucleon {
@@ -91,6 +92,10 @@ void buildCollisionPrimitives(CollisionPrimitives& out, const std::vector<Object
         out.triangleObject.push_back(o);
       }
   }
+  Real smallest = std::numeric_limits<Real>::infinity();
+  for (const auto* radii : {&out.pointRadius, &out.edgeRadius, &out.triangleRadius})
+    for (Real r : *radii) smallest = std::min(smallest, r);
+  out.smallestRadius = out.total() > 0 ? smallest : Real(0);
 }
 
 }  // namespace nucleon

@@ -7,6 +7,9 @@
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
+
+#include "nucleon/scene.h"
 #include "nucleon/shapes.h"
 #include "nucleon/world.h"
 
@@ -44,6 +47,23 @@ inline std::vector<std::string> bundledSceneNames() {
     if (entry.path().extension() == ".json") names.push_back(entry.path().stem().string());
   std::sort(names.begin(), names.end());
   return names;
+}
+
+// The message of the SceneError that building a world from this scene text raises; empty if none.
+inline std::string sceneError(const std::string& json) {
+  try {
+    buildWorld(parseScene(json, "test.json", "."));
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// `text` with the first occurrence of `from` replaced by `to` (a failure if there is none).
+inline std::string replaced(std::string text, const std::string& from, const std::string& to) {
+  const std::size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return at == std::string::npos ? text : text.replace(at, from.size(), to);
 }
 
 inline void simulate(World& world, int steps, double dt = 1.0 / 60) {

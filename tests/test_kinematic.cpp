@@ -415,21 +415,11 @@ TEST(KinematicScene, ParsesAMotion) {
   EXPECT_EQ(world.measure().nanCount, 0u);
 }
 
-std::string sceneError(const std::string& json) {
-  try {
-    buildWorld(parseScene(json, "test.json", "."));
-  } catch (const SceneError& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::sceneError;
 
 // kMotionScene with one substring replaced.
 std::string motionScene(const std::string& from, const std::string& to) {
-  std::string text = kMotionScene;
-  const std::size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  return text.replace(at, from.size(), to);
+  return test::replaced(kMotionScene, from, to);
 }
 
 TEST(KinematicScene, NamesTheJsonPathOfAnError) {
@@ -731,10 +721,7 @@ TEST(AnimatedPinScene, SharesTheMotionOfANamedCollider) {
 
 // kPinScene with one substring replaced.
 std::string pinScene(const std::string& from, const std::string& to) {
-  std::string text = kPinScene;
-  const std::size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  return text.replace(at, from.size(), to);
+  return test::replaced(kPinScene, from, to);
 }
 
 TEST(AnimatedPinScene, NamesTheJsonPathOfAnError) {

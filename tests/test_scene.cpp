@@ -15,6 +15,7 @@
 #include "nucleon/mesh_io.h"
 #include "nucleon/scene.h"
 #include "nucleon/shapes.h"
+#include "sim_test_context.h"
 
 using namespace nucleon;
 namespace fs = std::filesystem;
@@ -43,14 +44,7 @@ class TempFolder {
   fs::path path_;
 };
 
-std::string sceneError(const std::string& json) {
-  try {
-    buildWorld(parseScene(json, "test.json", "."));
-  } catch (const SceneError& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::sceneError;
 
 const char* kSmallCloth = R"({
   "name": "small", "frames": 5,
