@@ -20,7 +20,8 @@ namespace nucleon {
 //    attachments (Kim, Chentanez and Müller 2012), unilateral and hard. Pins joined by edges
 //    form a cluster; each free vertex is tethered to the nearest pin of each of its four nearest
 //    clusters (Dijkstra along the edges), leaving out a cluster whose pin is close to the
-//    nearest one as seen from the vertex, with the path length along the edges as the limit.
+//    nearest one as seen from the vertex, with the geodesic distance in the rest shape as the
+//    limit (systems/geodesic_distance.h).
 //    Tethers to several clusters, not only to the nearest pin, keep a cloth held at separate
 //    points from splitting where the nearest pin changes. A soft material may stretch, so it
 //    gets no tethers.

@@ -26,8 +26,8 @@ struct Material {
   bool twist = false;
   Real twistCompliance = 0;
   // Long-range attachments (Kim, Chentanez and Müller 2012) of inextensible (stretch compliance
-  // 0) cloth and ropes that have pins: each free vertex may not move farther from a pin than the
-  // shortest path to it along the mesh's edges in the rest shape. Pins joined by edges form a
+  // 0) cloth and ropes that have pins: each free vertex may not move farther from a pin than its
+  // geodesic distance to it in the rest shape (along the surface). Pins joined by edges form a
   // cluster, and a vertex is held by the nearest pin of each of its nearest clusters (up to
   // four), so a cloth held at separate points does not split where the nearest pin changes.
   // A unilateral, hard limit: it stops a pinned cloth from stretching away from its pins when
