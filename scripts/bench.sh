@@ -10,25 +10,36 @@
 #   summary.md      the tables: headline comparison, bending, sphere, thread scaling and the
 #                   fitted scaling model
 #   ms_vs_n.png, speedup.png, strain_vs_iterations.png   (gnuplot)
+#   convergence.csv, convergence.md, convergence_128.png, convergence_256.png   strain against
+#                   wall time and sweep cost for every backend (scripts/bench_convergence.sh)
 #
-# Usage: bash scripts/bench.sh [--quick] [--peer-only]
+# Usage: bash scripts/bench.sh [--quick] [--peer-only | --convergence-only]
 #   --quick       one repeat, N = 64 and 128 only, fewer steps: a smoke run of the pipeline
 #   --peer-only   only the comparison with Bullet (peer.csv), then the report; the thread scaling
 #                 and per-system CSV files already in the folder are kept as they are (machine.md
 #                 says which parts this run measured)
+#   --convergence-only   only scripts/bench_convergence.sh (machine.md and the other files are
+#                 left as they are)
 # Set NUCLEON_BENCH_MACHINE to name the results folder (default: <cores>core-<cpu model>), and
 # NUCLEON_BENCH_BUILD to use an existing Release build folder as it is configured (default: a
 # build-bench folder configured here, without the tests).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-quick=0 peer_only=0
+quick=0 peer_only=0 convergence_only=0
 for arg in "$@"; do
   case "$arg" in
     --quick) quick=1 ;;
     --peer-only) peer_only=1 ;;
-    *) echo "usage: bash scripts/bench.sh [--quick] [--peer-only]" >&2; exit 2 ;;
+    --convergence-only) convergence_only=1 ;;
+    *) echo "usage: bash scripts/bench.sh [--quick] [--peer-only | --convergence-only]" >&2; exit 2 ;;
   esac
 done
+if ((convergence_only)); then
+  # It sets up its own build and results folder the same way (same variables, same defaults).
+  quick_flag=()
+  ((quick)) && quick_flag=(--quick)
+  exec bash scripts/bench_convergence.sh "${quick_flag[@]}"
+fi
 started=$(date +%s)
 
 bash scripts/deps.sh bench
@@ -108,4 +119,11 @@ for family in Sweep Contacts; do
 done
 
 bash bench/report.sh "$out"
+
+echo "== convergence of the backends"
+# Same build and results folder; it writes its own tables and plots (convergence.md).
+quick_flag=()
+((quick)) && quick_flag=(--quick)
+NUCLEON_BENCH_BUILD=$bin NUCLEON_BENCH_MACHINE=$machine \
+  bash scripts/bench_convergence.sh "${quick_flag[@]}"
 echo "results: $out ($(($(date +%s) - started)) s)"
