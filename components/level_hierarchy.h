@@ -50,7 +50,8 @@
 // by its parents' TOTAL displacement since the cascade began, so that what the coarser levels did
 // reaches every particle, not only what the last level did:
 //   q ← p for the object's particles (saved once, before the coarsest level);
-//   for l = L−1 … 1: sweep level l's edges as unilateral limits, color by color;
+//   for l = L−1 … 1: sweep level l's edges as unilateral limits, color by color, then the
+//                    tethers of level l's particles;
 //                    for every fine particle f of level l−1:
 //                      p_f ← q_f + Σ_j weight_fj (p_j − q_j) over its parents j;
 //   then the ordinary fine sweeps (level 0) over the object's constraint pools.
@@ -79,6 +80,13 @@ struct HierarchyLevel {
   std::vector<Index> parentOffset;  // fine.size() + 1 entries
   std::vector<Index> parent;        // global, on the next level
   std::vector<Real> weight;         // > 0, summing to 1 per fine particle
+
+  // The tethers of this level's particles, coarse levels only (the fine level's are the tether
+  // pool): CSR over `particles`, the tethers of particles[k] being [tetherOffset[k],
+  // tetherOffset[k+1]), each a pin (global) and its limit. Empty when the object has none.
+  std::vector<Index> tetherOffset;
+  std::vector<Index> tetherPin;
+  std::vector<Real> tetherLimit;
 
   std::size_t colorCount() const { return colorOffset.empty() ? 0 : colorOffset.size() - 1; }
   std::span<const Index> parentsOf(std::size_t fineIndex) const {

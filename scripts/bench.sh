@@ -79,7 +79,7 @@ threads=$(seq -s, 1 "$jobs")
 
 echo "== cloth against Bullet (hanging, structural links; nucleon tethers on and off)"
 "$bin/bench/nucleon_bench_cloth" --n "$sizes" --iterations 4,10,20 --scenes hanging \
-  --bending off --solvers colored-gs,jacobi --tethers both --threads "$jobs" \
+  --bending off --solvers colored-gs,jacobi,multigrid --tethers both --threads "$jobs" \
   --repeats "$repeats" --steps "$steps" --csv "$out/peer_hanging.csv"
 echo "== cloth against Bullet (hanging, with bending; nucleon tethers on and off)"
 "$bin/bench/nucleon_bench_cloth" --n "$sizes" --iterations 10 --scenes hanging --bending on \

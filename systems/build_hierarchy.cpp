@@ -290,4 +290,33 @@ void buildLevelHierarchies(LevelHierarchies& out, const std::vector<ObjectRecord
   }
 }
 
+void attachLevelTethers(LevelHierarchies& hierarchies, const TetherConstraints& tethers,
+                        std::size_t particleCount) {
+  // The pool's tethers grouped by free particle (CSR), in pool order within a particle.
+  std::vector<Index> offset(particleCount + 1, 0), order(tethers.size());
+  for (std::size_t c = 0; c < tethers.size(); ++c) ++offset[tethers.particles[c][0] + 1];
+  for (std::size_t i = 0; i < particleCount; ++i) offset[i + 1] += offset[i];
+  std::vector<Index> fill(offset.begin(), offset.end() - 1);
+  for (std::size_t c = 0; c < tethers.size(); ++c)
+    order[fill[tethers.particles[c][0]]++] = static_cast<Index>(c);
+  for (ObjectHierarchy& hierarchy : hierarchies.objects)
+    for (std::size_t l = 0; l < hierarchy.levels.size(); ++l) {
+      HierarchyLevel& level = hierarchy.levels[l];
+      level.tetherOffset.clear();
+      level.tetherPin.clear();
+      level.tetherLimit.clear();
+      if (l == 0 || tethers.size() == 0) continue;
+      level.tetherOffset.reserve(level.particles.size() + 1);
+      level.tetherOffset.push_back(0);
+      for (Index i : level.particles) {
+        for (Index k = offset[i]; k < offset[i + 1]; ++k) {
+          level.tetherPin.push_back(tethers.particles[order[k]][1]);
+          level.tetherLimit.push_back(tethers.rest[order[k]]);
+        }
+        level.tetherOffset.push_back(static_cast<Index>(level.tetherPin.size()));
+      }
+      if (level.tetherPin.empty()) level.tetherOffset.clear();
+    }
+}
+
 }  // namespace nucleon

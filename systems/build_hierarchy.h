@@ -33,6 +33,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "components/constraint_pool.h"
 #include "components/level_hierarchy.h"
 #include "components/objects.h"
 #include "components/particles.h"
@@ -71,5 +72,13 @@ struct HierarchySettings {
 // whose complex has edges), reading particles.restPosition and particles.w.
 void buildLevelHierarchies(LevelHierarchies& out, const std::vector<ObjectRecord>& objects,
                            const ParticlePool& particles, const HierarchySettings& settings = {});
+
+// Copies each tether whose free particle is on a coarse level into that level (tetherOffset,
+// tetherPin, tetherLimit), so the cascade holds coarse particles to their pins as the fine sweeps
+// hold every particle: without them the coarse levels let the cloth stretch away from its pins
+// and only the fine sweeps pull it back (cloth_hang_256, 120 frames, cascade and 8 fine sweeps:
+// mean strain 0.77% without, 0.49% with them projected after each level's sweeps). Call after buildLevelHierarchies and whenever the tethers change.
+void attachLevelTethers(LevelHierarchies& hierarchies, const TetherConstraints& tethers,
+                        std::size_t particleCount);
 
 }  // namespace nucleon

@@ -8,6 +8,7 @@
 // belongs to the object of its first particle (particles.phase).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 
 #include <type_traits>
@@ -21,6 +22,7 @@
 #include "systems/colored_sweep.h"
 #include "systems/constraint_kernels.h"
 #include "systems/distance_batch.h"
+#include "systems/jacobi_chebyshev.h"
 #include "systems/jacobi_gather.h"
 
 namespace nucleon {
@@ -29,8 +31,11 @@ namespace nucleon {
 struct SweepContext {
   ParticlePool& particles;
   Real h = 0;
-  Real relaxation = 1;                       // Jacobi ω
+  Real relaxation = 1;                       // Jacobi γ (under/over-relaxation of each step)
   const std::uint8_t* objectRuns = nullptr;  // null: every object
+  // Jacobi sweeps of each pool so far in this solve: the Chebyshev weight follows the sweep's
+  // index. A context lives for one substep's solve, so the count restarts with every substep.
+  mutable JacobiSweepCounter jacobiSweeps{};
 };
 
 namespace sweep_detail {
@@ -115,30 +120,100 @@ void solveGaussSeidel(ConstraintPool<N>& pool, const SweepContext& context) {
 // Jacobi with mass splitting (Tonge et al. 2012): each constraint sees particle i with n_i times
 // its inverse mass (n_i = the family's constraints on i), as if i's mass were shared equally
 // among them; the gather then averages the copies, so that particle i moves by
-//   Δx_i = ω Σ_c w_i ∇_i C_c Δλ_c,
-// exactly the displacement that the multipliers account for. λ_c therefore accumulates ω Δλ_c,
+//   Δx_i = γ Σ_c w_i ∇_i C_c Δλ_c,
+// exactly the displacement that the multipliers account for. λ_c therefore accumulates γ Δλ_c,
 // and the compliance term −α̃λ stays consistent with the positions: with plain averaging,
 // particles move n_i times less than λ says, and a soft material comes out softer.
+//
+// On top of it, Chebyshev acceleration (jacobi_chebyshev.h): constraint c's slot becomes
+//   u_c = ω γ Δx_c + (ω − 1) u_c,prev,
+// the gather averaging u over the particle's slots. Only hard, undamped constraints are
+// accelerated: λ_c books the ω γ Δλ_c part of the move but not the carried (ω − 1) u_prev part,
+// which matters only where λ is read, that is where α > 0 (the −α̃λ term) — a soft or damped
+// constraint keeps ω = 1 and its λ stays exact. A constraint the object filter leaves out
+// writes zero and drops its history.
+namespace sweep_detail {
+template <std::size_t N>
+NUCLEON_KERNEL bool acceleratable(const ConstraintPool<N>& pool, std::size_t c) {
+  return pool.compliance[c] == 0 && pool.compressionCompliance[c] == 0 && pool.damping[c] == 0;
+}
+
+// The per-sweep factors of the Jacobi update: γ for unaccelerated constraints, ω γ and ω − 1 for
+// the accelerated ones.
+struct JacobiFactors {
+  Real relaxation = 1;  // γ
+  Real step = 1;        // ω γ
+  Real carry = 0;       // ω − 1; 0 on the plain sweeps, which then never read the old slots
+};
+
+template <class Kernel, std::size_t N>
+NUCLEON_KERNEL void jacobiOne(ConstraintPool<N>& pool, std::size_t c, const SweepContext& context,
+                              const JacobiFactors& factors, Real invH) {
+  Vec3* slot = pool.correction.data() + N * c;
+  if (!takesPart(pool, c, context)) {
+    for (std::size_t k = 0; k < N; ++k) slot[k].setZero();
+    return;
+  }
+  Points<N> dx;
+  const Real deltaLambda = correct<Kernel>(pool, c, context.particles.p.data(), context.particles,
+                                           invH, dx, pool.splitInverseMass.data());
+  if (factors.carry != 0 && acceleratable(pool, c)) {
+    pool.lambda[c] += factors.step * deltaLambda;
+    for (std::size_t k = 0; k < N; ++k) {
+      // Adaptive restart: history that opposes this sweep's correction is an overshoot (a
+      // contact or another family pushed the particle back), and carrying it would extrapolate
+      // through that obstacle; such a slot restarts from the plain step.
+      const Real keep = dx[k].dot(slot[k]) >= 0 ? factors.carry : Real(0);
+      slot[k] = factors.step * dx[k] + keep * slot[k];
+    }
+  } else {
+    pool.lambda[c] += factors.relaxation * deltaLambda;
+    for (std::size_t k = 0; k < N; ++k) slot[k] = factors.relaxation * dx[k];
+  }
+}
+}  // namespace sweep_detail
+
 template <class Kernel, std::size_t N>
 void solveJacobi(ConstraintPool<N>& pool, const SweepContext& context) {
-  const ParticlePool& ps = context.particles;
-  const Vec3* p = ps.p.data();
-  const Real invH = 1 / context.h, omega = context.relaxation;
-  const Real* splitInverseMass = pool.splitInverseMass.data();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pool.size(), sweep_detail::kGrain),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      Points<N> dx;
-                      for (std::size_t c = r.begin(); c != r.end(); ++c) {
-                        if (sweep_detail::takesPart(pool, c, context)) {
-                          pool.lambda[c] += omega * sweep_detail::correct<Kernel>(
-                                                        pool, c, p, ps, invH, dx, splitInverseMass);
-                        } else {
-                          for (auto& d : dx) d.setZero();
-                        }
-                        for (std::size_t k = 0; k < N; ++k) pool.correction[N * c + k] = dx[k];
-                      }
-                    });
-  gatherJacobiCorrections(pool.incidence, pool.correction, context.particles, context.relaxation);
+  const Real invH = 1 / context.h;
+  const Real omega = chebyshevWeight(context.jacobiSweeps.next(&pool));
+  sweep_detail::JacobiFactors factors;
+  factors.relaxation = context.relaxation;
+  factors.step = omega * context.relaxation;
+  factors.carry = omega - 1;
+  // Blocks of kDistanceBatchSize constraints from constraint 0, whatever the partitioning: which
+  // constraints take the batched path, and hence the rounding, never depends on the thread count.
+  const std::size_t blocks = (pool.size() + kDistanceBatchSize - 1) / kDistanceBatchSize;
+  bool batched = false;
+  DistanceJacobiBatch batch;
+  if constexpr (std::is_base_of_v<DistanceKernel, Kernel>) {
+    // Undamped distance constraints: eight at a time (distance_batch.h), in place of the scalar
+    // loop below, whose result they equal up to rounding.
+    batched = !context.objectRuns && pool.undamped && distanceBatchesAvailable();
+    batch.particles = pool.particles.data();
+    batch.rest = pool.rest.data();
+    batch.compliance = pool.compliance.data();
+    batch.compressionCompliance = pool.compressionCompliance.data();
+    batch.lambda = pool.lambda.data();
+    batch.positions = context.particles.p.data();
+    batch.splitInverseMass = pool.splitInverseMass.data();
+    batch.correction = pool.correction.data();
+    batch.inverseH2 = invH * invH;
+    batch.unilateral = std::is_same_v<Kernel, TetherKernel>;
+    batch.relaxation = factors.relaxation;
+    batch.step = factors.step;
+    batch.carry = factors.carry;
+  }
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, blocks, sweep_detail::kGrain / kDistanceBatchSize),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        const std::size_t end = std::min(pool.size(), r.end() * kDistanceBatchSize);
+        std::size_t c = r.begin() * kDistanceBatchSize;
+        if (batched)
+          c = projectDistanceJacobiBatches(batch, static_cast<Index>(c), static_cast<Index>(end));
+        for (; c < end; ++c) sweep_detail::jacobiOne<Kernel>(pool, c, context, factors, invH);
+      });
+  gatherJacobiCorrections(pool.incidence, pool.correction, context.particles, Real(1));
 }
 
 template <class Kernel, std::size_t N>

@@ -93,6 +93,85 @@ namespace {
   return k;
 }
 
+// The Jacobi batch: the arithmetic of projectAvx2 with split inverse masses, the result written
+// to the constraints' slots. Positions are only read, so constraints may share particles.
+[[gnu::target("avx2,fma")]] Index projectJacobiAvx2(const DistanceJacobiBatch& b, Index begin,
+                                                    Index end) {
+  const float* base = reinterpret_cast<const float*>(b.positions);
+  const __m256 tiny = _mm256_set1_ps(1e-12f), zero = _mm256_setzero_ps();
+  const __m256 inverseH2 = _mm256_set1_ps(b.inverseH2);
+  const __m256 relaxation = _mm256_set1_ps(b.relaxation), step = _mm256_set1_ps(b.step);
+  const __m256 carry = _mm256_set1_ps(b.carry);
+  const bool accelerated = b.carry != 0;
+  const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+  alignas(32) float ex[8], ey[8], ez[8], ga[8], gb[8], keep[8];
+  Index k = begin;
+  for (; k + 8 <= end; k += 8) {
+    const auto* pairs = reinterpret_cast<const __m256i*>(b.particles + k);
+    const __m256i low = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(pairs), split);
+    const __m256i high = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(pairs + 1), split);
+    const __m256i a = _mm256_permute2x128_si256(low, high, 0x20);
+    const __m256i c = _mm256_permute2x128_si256(low, high, 0x31);
+    const __m256i a3 = _mm256_add_epi32(_mm256_slli_epi32(a, 1), a);
+    const __m256i c3 = _mm256_add_epi32(_mm256_slli_epi32(c, 1), c);
+    const __m256 dx =
+        _mm256_sub_ps(_mm256_i32gather_ps(base, a3, 4), _mm256_i32gather_ps(base, c3, 4));
+    const __m256 dy =
+        _mm256_sub_ps(_mm256_i32gather_ps(base + 1, a3, 4), _mm256_i32gather_ps(base + 1, c3, 4));
+    const __m256 dz =
+        _mm256_sub_ps(_mm256_i32gather_ps(base + 2, a3, 4), _mm256_i32gather_ps(base + 2, c3, 4));
+    const __m256 wa = _mm256_i32gather_ps(b.splitInverseMass, a, 4);
+    const __m256 wb = _mm256_i32gather_ps(b.splitInverseMass, c, 4);
+
+    const __m256 length =
+        _mm256_sqrt_ps(_mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz))));
+    const __m256 constraint = _mm256_sub_ps(length, _mm256_loadu_ps(b.rest + k));
+    const __m256 stretchCompliance = _mm256_loadu_ps(b.compliance + k);
+    const __m256 compressionCompliance = _mm256_loadu_ps(b.compressionCompliance + k);
+    const __m256 below = _mm256_cmp_ps(constraint, zero, _CMP_LT_OQ);
+    const __m256 alpha =
+        _mm256_mul_ps(_mm256_blendv_ps(stretchCompliance, compressionCompliance, below), inverseH2);
+    const __m256 stiffness = _mm256_add_ps(wa, wb);
+    __m256 active = _mm256_and_ps(_mm256_cmp_ps(length, tiny, _CMP_GE_OQ),
+                                  _mm256_cmp_ps(stiffness, tiny, _CMP_GE_OQ));
+    if (b.unilateral) active = _mm256_and_ps(active, _mm256_cmp_ps(constraint, zero, _CMP_GT_OQ));
+    const __m256 lambda = _mm256_loadu_ps(b.lambda + k);
+    const __m256 numerator =
+        _mm256_sub_ps(_mm256_setzero_ps(), _mm256_fmadd_ps(alpha, lambda, constraint));
+    const __m256 scale = _mm256_and_ps(
+        _mm256_div_ps(numerator,
+                      _mm256_mul_ps(_mm256_add_ps(stiffness, alpha), _mm256_max_ps(length, tiny))),
+        active);
+    // Hard constraints (both compliances 0) are accelerated on the accelerated sweeps.
+    __m256 hard = _mm256_and_ps(_mm256_cmp_ps(stretchCompliance, zero, _CMP_EQ_OQ),
+                                _mm256_cmp_ps(compressionCompliance, zero, _CMP_EQ_OQ));
+    if (!accelerated) hard = zero;
+    const __m256 factor = _mm256_blendv_ps(relaxation, step, hard);
+    _mm256_storeu_ps(b.lambda + k, _mm256_fmadd_ps(_mm256_mul_ps(factor, scale), length, lambda));
+    const __m256 scaled = _mm256_mul_ps(factor, scale);
+    _mm256_store_ps(ga, _mm256_mul_ps(wa, scaled));
+    _mm256_store_ps(gb, _mm256_mul_ps(wb, scaled));
+    _mm256_store_ps(keep, _mm256_and_ps(carry, hard));
+    _mm256_store_ps(ex, dx);
+    _mm256_store_ps(ey, dy);
+    _mm256_store_ps(ez, dz);
+    Vec3* slot = b.correction + 2 * k;
+    for (int j = 0; j < 8; ++j, slot += 2) {
+      const Vec3 e(ex[j], ey[j], ez[j]);
+      if (keep[j] != 0) {
+        // Adaptive restart per slot, as in the scalar path (constraint_sweeps.h).
+        const Vec3 ua = ga[j] * e, ub = -gb[j] * e;
+        slot[0] = ua + (ua.dot(slot[0]) >= 0 ? keep[j] : 0.0f) * slot[0];
+        slot[1] = ub + (ub.dot(slot[1]) >= 0 ? keep[j] : 0.0f) * slot[1];
+      } else {
+        slot[0] = ga[j] * e;
+        slot[1] = -gb[j] * e;
+      }
+    }
+  }
+  return k;
+}
+
 bool cpuHasAvx2Fma() {
   __builtin_cpu_init();
   return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
@@ -109,6 +188,10 @@ Index projectDistanceBatches(const DistanceBatch& batch, Index begin, Index end)
   return distanceBatchesAvailable() ? projectAvx2(batch, begin, end) : begin;
 }
 
+Index projectDistanceJacobiBatches(const DistanceJacobiBatch& batch, Index begin, Index end) {
+  return distanceBatchesAvailable() ? projectJacobiAvx2(batch, begin, end) : begin;
+}
+
 #else
 
 bool distanceBatchesAvailable() {
@@ -116,6 +199,10 @@ bool distanceBatchesAvailable() {
 }
 
 Index projectDistanceBatches(const DistanceBatch&, Index begin, Index) {
+  return begin;
+}
+
+Index projectDistanceJacobiBatches(const DistanceJacobiBatch&, Index begin, Index) {
   return begin;
 }
 

@@ -30,6 +30,28 @@ struct DistanceBatch {
   const std::array<Real, 2>* endInverseMass = nullptr;
 };
 
+// The Jacobi form of the same projection: every constraint of the range reads the same positions
+// and writes its two corrections into its slots (correction[2c], correction[2c + 1]) instead of
+// moving the particles, with each particle's inverse mass multiplied by its constraint count
+// (mass splitting) and the Chebyshev update of constraint_sweeps.h applied to the slots:
+//   u = ω γ Δx + (ω − 1) u_prev  for hard constraints when `carry` ≠ 0,  u = γ Δx otherwise,
+// and λ += (ω γ or γ) Δλ alike. Constraints may share particles: nothing is written to them.
+struct DistanceJacobiBatch {
+  const std::array<Index, 2>* particles = nullptr;
+  const Real* rest = nullptr;
+  const Real* compliance = nullptr;
+  const Real* compressionCompliance = nullptr;
+  Real* lambda = nullptr;
+  const Vec3* positions = nullptr;
+  const Real* splitInverseMass = nullptr;  // w_i times the family's constraint count on i
+  Vec3* correction = nullptr;
+  Real inverseH2 = 0;       // 1/h²
+  bool unilateral = false;  // tethers: only C > 0 is corrected
+  Real relaxation = 1;      // γ
+  Real step = 1;            // ω γ
+  Real carry = 0;           // ω − 1 (0: plain sweep, the old slots are not read)
+};
+
 // True when this build and CPU run the batched path (float solver state, AVX2 and FMA).
 bool distanceBatchesAvailable();
 
@@ -37,5 +59,9 @@ bool distanceBatchesAvailable();
 // particle (pins, w = 0, are read but never written). Returns the first constraint it left to
 // the caller (fewer than eight remain, or the batched path is unavailable: then `begin`).
 Index projectDistanceBatches(const DistanceBatch& batch, Index begin, Index end);
+
+// Projects constraints begin, begin+1, … in batches of eight into their Jacobi slots. Returns the
+// first constraint it left to the caller, like projectDistanceBatches.
+Index projectDistanceJacobiBatches(const DistanceJacobiBatch& batch, Index begin, Index end);
 
 }  // namespace nucleon

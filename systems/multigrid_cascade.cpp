@@ -1,7 +1,11 @@
 #include "systems/multigrid_cascade.h"
 
+#include <algorithm>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+
+#include "systems/tether_projection.h"
 
 namespace nucleon {
 namespace {
@@ -30,14 +34,52 @@ void projectLimit(ParticlePool& particles, const std::array<Index, 2>& edge, Rea
   particles.p[j] += wj * correction;
 }
 
+// A level this small is swept on the calling thread: a color of a few hundred edges costs less
+// than the barrier a parallel loop puts after it. The colors are independent sets, so the serial
+// sweep in color order gives the same result bit for bit.
+constexpr std::size_t kSerialEdges = 8192;
+
 void sweepLevel(const HierarchyLevel& level, ParticlePool& particles) {
-  for (std::size_t c = 0; c < level.colorCount(); ++c)
-    tbb::parallel_for(
-        tbb::blocked_range<Index>(level.colorOffset[c], level.colorOffset[c + 1], kEdgeGrain),
-        [&](const tbb::blocked_range<Index>& r) {
-          for (Index e = r.begin(); e != r.end(); ++e)
-            projectLimit(particles, level.edges[e], level.restLength[e]);
-        });
+  const bool serial = level.edges.size() < kSerialEdges;
+  for (std::size_t c = 0; c < level.colorCount(); ++c) {
+    const Index begin = level.colorOffset[c], end = level.colorOffset[c + 1];
+    if (serial) {
+      for (Index e = begin; e != end; ++e)
+        projectLimit(particles, level.edges[e], level.restLength[e]);
+      continue;
+    }
+    tbb::parallel_for(tbb::blocked_range<Index>(begin, end, kEdgeGrain),
+                      [&](const tbb::blocked_range<Index>& r) {
+                        for (Index e = r.begin(); e != r.end(); ++e)
+                          projectLimit(particles, level.edges[e], level.restLength[e]);
+                      });
+  }
+}
+
+// The level's tethers, |p_i − p_pin| ≤ L, two at a time as in the fine tether sweep (a pin never
+// moves). Particles are independent: parallel.
+void sweepLevelTethers(const HierarchyLevel& level, ParticlePool& particles) {
+  if (level.tetherOffset.empty()) return;
+  auto project = [&](std::size_t k) {
+    const Index i = level.particles[k];
+    if (particles.w[i] == 0) return;
+    Vec3 x = particles.p[i];
+    const Index end = level.tetherOffset[k + 1];
+    for (Index t = level.tetherOffset[k]; t < end; t += 2)
+      x = t + 1 < end
+              ? projectOntoTetherPair(x, particles.p[level.tetherPin[t]], level.tetherLimit[t],
+                                      particles.p[level.tetherPin[t + 1]], level.tetherLimit[t + 1])
+              : projectOntoTether(x, particles.p[level.tetherPin[t]], level.tetherLimit[t]);
+    particles.p[i] = x;
+  };
+  if (level.edges.size() < kSerialEdges) {
+    for (std::size_t k = 0; k < level.particles.size(); ++k) project(k);
+    return;
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, level.particles.size(), kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t k = r.begin(); k != r.end(); ++k) project(k);
+                    });
 }
 
 // p_f = q_f + Σ_j w_fj (p_j − q_j) for the fine particles of `level` (total displacement).
@@ -60,9 +102,9 @@ void prolong(const HierarchyLevel& level, ParticlePool& particles, const std::ve
 
 std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
                                 std::span<const ObjectRecord> objects, ParticlePool& particles,
-                                std::vector<Vec3>& start, int sweepsPerLevel,
+                                std::vector<Vec3>& start, std::span<const int> sweepsPerLevel,
                                 CascadeHook afterLevel, void* context) {
-  if (sweepsPerLevel <= 0) return 0;
+  if (sweepsOfLevel(sweepsPerLevel, 1) <= 0) return 0;
   start.resize(particles.size());
   std::size_t projections = 0;
   for (const ObjectHierarchy& hierarchy : hierarchies.objects) {
@@ -74,8 +116,11 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
                       });
     for (std::size_t l = hierarchy.levels.size() - 1; l >= 1; --l) {
       const HierarchyLevel& level = hierarchy.levels[l];
-      for (int s = 0; s < sweepsPerLevel; ++s) sweepLevel(level, particles);
-      projections += level.edges.size() * static_cast<std::size_t>(sweepsPerLevel);
+      const int sweeps = sweepsOfLevel(sweepsPerLevel, l);
+      for (int k = 0; k < sweeps; ++k) sweepLevel(level, particles);
+      if (sweeps > 0) sweepLevelTethers(level, particles);
+      projections += level.edges.size() * static_cast<std::size_t>(sweeps) +
+                     (sweeps > 0 ? level.tetherPin.size() : 0);
       if (afterLevel) afterLevel(context);
       prolong(hierarchy.levels[l - 1], particles, start);
     }
@@ -85,15 +130,24 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
 }
 
 std::size_t cascadeProjections(const LevelHierarchies& hierarchies,
-                               std::span<const ObjectRecord> objects, int sweepsPerLevel) {
-  if (sweepsPerLevel <= 0) return 0;
+                               std::span<const ObjectRecord> objects,
+                               std::span<const int> sweepsPerLevel) {
+  if (sweepsOfLevel(sweepsPerLevel, 1) <= 0) return 0;
   std::size_t projections = 0;
   for (const ObjectHierarchy& hierarchy : hierarchies.objects) {
     if (!cascades(hierarchy, objects)) continue;
-    for (std::size_t l = 1; l < hierarchy.levels.size(); ++l)
-      projections += hierarchy.levels[l].edges.size() * static_cast<std::size_t>(sweepsPerLevel);
+    for (std::size_t l = 1; l < hierarchy.levels.size(); ++l) {
+      const int sweeps = sweepsOfLevel(sweepsPerLevel, l);
+      projections += hierarchy.levels[l].edges.size() * static_cast<std::size_t>(sweeps) +
+                     (sweeps > 0 ? hierarchy.levels[l].tetherPin.size() : 0);
+    }
   }
   return projections;
+}
+
+int sweepsOfLevel(std::span<const int> sweepsPerLevel, std::size_t level) {
+  if (sweepsPerLevel.empty() || level == 0) return 0;
+  return sweepsPerLevel[std::min(level, sweepsPerLevel.size()) - 1];
 }
 
 }  // namespace nucleon

@@ -19,22 +19,27 @@ namespace nucleon {
 
 // Runs the cascade on particles.p for every hierarchy of at least two levels whose object is
 // inextensible (stretch compliance 0; a soft object's coarse limits would stiffen it), with
-// `sweepsPerLevel` sweeps of each coarse level. `start` is scratch (q, the positions when the
-// cascade began), sized to the particle count. Colors of a level run in sequence, the edges of a
-// color in parallel (no two share a particle), prolongation in parallel per particle: the result
-// does not depend on the thread count. After the sweeps of every level, and after the last
-// prolongation, `afterLevel(context)` is called: the solve projects its contacts there, as it
+// sweepsOfLevel(sweepsPerLevel, l) sweeps of coarse level l. `start` is scratch (q, the positions
+// when the cascade began), sized to the particle count. Colors of a level run in sequence, the
+// edges of a color in parallel (no two share a particle), prolongation in parallel per particle:
+// the result does not depend on the thread count. After the sweeps of every level, and after the
+// last prolongation, `afterLevel(context)` is called: the solve projects its contacts there, as it
 // does after every fine sweep round, so that a particle the cascade pulls toward a collider is
 // held by its contact instead of being carried into it. Returns the coarse-edge projections
-// performed.
+// and tether projections performed.
 using CascadeHook = void (*)(void* context);
+
+// The sweeps of coarse level l ≥ 1: sweepsPerLevel[l − 1], or its last value beyond the list; 0
+// for an empty list. A 0 for level 1 turns the cascade off.
+int sweepsOfLevel(std::span<const int> sweepsPerLevel, std::size_t level);
 std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
                                 std::span<const ObjectRecord> objects, ParticlePool& particles,
-                                std::vector<Vec3>& start, int sweepsPerLevel,
+                                std::vector<Vec3>& start, std::span<const int> sweepsPerLevel,
                                 CascadeHook afterLevel = nullptr, void* context = nullptr);
 
 // The coarse-edge projections one cascade performs (for throughput and work figures).
 std::size_t cascadeProjections(const LevelHierarchies& hierarchies,
-                               std::span<const ObjectRecord> objects, int sweepsPerLevel);
+                               std::span<const ObjectRecord> objects,
+                               std::span<const int> sweepsPerLevel);
 
 }  // namespace nucleon

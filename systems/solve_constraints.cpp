@@ -59,13 +59,14 @@ void forFamilyPools(ConstraintFamily family, Pools& pools, F&& f) {
 double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const SweepPlan& plan,
                         ContactPool& contacts, const ColliderPool& colliders,
                         PrimitiveContactPool& primitiveContacts, SolverKind kind, Real h,
-                        Real relaxation) {
+                        Real relaxation, RoundHook betweenRounds, void* hookContext) {
   // Multigrid's fine sweeps are colored Gauss–Seidel sweeps (its cascade runs before them).
   if (kind == SolverKind::Multigrid) kind = SolverKind::ColoredGaussSeidel;
   const bool anyContacts = contacts.size() > 0 || primitiveContacts.size() > 0;
   pools.forEach([](auto& pool) { std::fill(pool.lambda.begin(), pool.lambda.end(), Real(0)); });
   SweepContext context{particles, h, relaxation, nullptr};
   double contactSeconds = 0;
+  int roundsDone = 0;
   for (const SweepOp& op : plan.ops) {
     context.objectRuns =
         op.objectRunsOffset < 0 ? nullptr : plan.objectRuns.data() + op.objectRunsOffset;
@@ -78,6 +79,8 @@ double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const S
     });
     if (op.endsRound && anyContacts)
       contactSeconds += timedContacts(contacts, colliders, primitiveContacts, particles, kind);
+    if (op.endsRound && ++roundsDone < plan.rounds && betweenRounds)
+      betweenRounds(hookContext, roundsDone);
   }
   if (plan.ops.empty() && anyContacts)
     contactSeconds += timedContacts(contacts, colliders, primitiveContacts, particles, kind);

@@ -17,11 +17,15 @@ namespace nucleon {
 // projecting the collider contact pool and the primitive contact pool after each round (and once
 // when the plan has no sweeps), so that resting contact is solved with the constraints and not
 // after them. Returns the seconds spent in contact projection, which the profile books as
-// collisions.
+// collisions. After each round but the last (its contacts projected), `betweenRounds(context,
+// r)` is called with the number r ≥ 1 of rounds done, if given: the multigrid backend repeats
+// its cascade there.
+using RoundHook = void (*)(void* context, int roundsDone);
 double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const SweepPlan& plan,
                         ContactPool& contacts, const ColliderPool& colliders,
                         PrimitiveContactPool& primitiveContacts, SolverKind kind, Real h,
-                        Real relaxation);
+                        Real relaxation, RoundHook betweenRounds = nullptr,
+                        void* context = nullptr);
 
 // Constraint projections one substep of `plan` performs (for throughput figures).
 std::uint64_t countProjections(const ConstraintPools& pools, const ParticlePool& particles,

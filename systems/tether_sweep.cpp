@@ -8,6 +8,7 @@
 #include <tbb/parallel_for.h>
 
 #include "systems/distance_batch.h"
+#include "systems/tether_projection.h"
 
 // The batched path is written for float state on x86-64, like the distance batches.
 #if (defined(__x86_64__) || defined(__i386__)) && !defined(NUCLEON_DOUBLE)
@@ -22,18 +23,24 @@ constexpr Index kBatch = 8;
 constexpr std::size_t kBlocksPerTask = 64;
 constexpr Real kTiny = Real(1e-12);
 
-// Rank r's tethers, one layer after the other, applied to its vertex (scalar).
+// Rank r's tethers applied to its vertex, layers two at a time (scalar).
 inline void projectVertex(const TetherConstraints& pool, Index rank, Vec3* p, const Real* w) {
   const auto& layers = pool.coloring.colorOffset;
   const Index vertex = pool.particles[layers[0] + rank][0];
   if (w[vertex] == 0) return;
+  auto reaches = [&](std::size_t k) {
+    return k + 1 < layers.size() && layers[k] + rank < layers[k + 1];
+  };
   Vec3 x = p[vertex];
-  for (std::size_t k = 0; k + 1 < layers.size() && layers[k] + rank < layers[k + 1]; ++k) {
+  for (std::size_t k = 0; reaches(k); k += 2) {
     const Index c = layers[k] + rank;
-    const Vec3 d = x - p[pool.particles[c][1]];
-    const Real length = d.norm();
-    const Real constraint = length - pool.rest[c];
-    if (constraint > 0 && length >= kTiny) x -= d * (constraint / length);
+    if (reaches(k + 1)) {
+      const Index e = layers[k + 1] + rank;
+      x = projectOntoTetherPair(x, p[pool.particles[c][1]], pool.rest[c], p[pool.particles[e][1]],
+                                pool.rest[e]);
+    } else {
+      x = projectOntoTether(x, p[pool.particles[c][1]], pool.rest[c]);
+    }
   }
   p[vertex] = x;
 }
@@ -75,12 +82,104 @@ inline void projectVertex(const TetherConstraints& pool, Index rank, Vec3* p, co
   _mm256_storeu_ps(at + 16, _mm256_blend_ps(_mm256_blend_ps(ux, uy, 0x49), uz, 0x92));
 }
 
+// Eight pins' positions as x, y, z vectors.
+struct Eight {
+  __m256 x, y, z;
+};
+
+// The pins of eight tethers; neighbouring vertices mostly share their pin in a layer, and then
+// one broadcast serves all.
+[[gnu::target("avx2,fma")]] inline void loadPins(const TetherConstraints&, const Vec3* p,
+                                                 const float* base, __m256i pin, Eight& out) {
+  const __m256i firstPin = _mm256_set1_epi32(_mm256_cvtsi256_si32(pin));
+  if (_mm256_movemask_epi8(_mm256_cmpeq_epi32(pin, firstPin)) == -1) {
+    const Vec3& shared = p[_mm256_cvtsi256_si32(pin)];
+    out = {_mm256_set1_ps(shared.x()), _mm256_set1_ps(shared.y()), _mm256_set1_ps(shared.z())};
+    return;
+  }
+  const __m256i pin3 = _mm256_add_epi32(_mm256_slli_epi32(pin, 1), pin);
+  out = {_mm256_i32gather_ps(base, pin3, 4), _mm256_i32gather_ps(base + 1, pin3, 4),
+         _mm256_i32gather_ps(base + 2, pin3, 4)};
+}
+
+[[gnu::target("avx2,fma")]] inline __m256 norm(__m256 x, __m256 y, __m256 z) {
+  return _mm256_sqrt_ps(_mm256_fmadd_ps(x, x, _mm256_fmadd_ps(y, y, _mm256_mul_ps(z, z))));
+}
+
+// projectOntoTether, eight at a time: q = x − d (|d| − r)/|d| where |d| > r, d = x − c.
+[[gnu::target("avx2,fma")]] inline void projectOntoBall(__m256 x, __m256 y, __m256 z,
+                                                        const Eight& c, __m256 r, __m256& qx,
+                                                        __m256& qy, __m256& qz) {
+  const __m256 tiny = _mm256_set1_ps(kTiny);
+  const __m256 dx = _mm256_sub_ps(x, c.x), dy = _mm256_sub_ps(y, c.y), dz = _mm256_sub_ps(z, c.z);
+  const __m256 length = norm(dx, dy, dz);
+  const __m256 constraint = _mm256_sub_ps(length, r);
+  const __m256 active = _mm256_and_ps(_mm256_cmp_ps(constraint, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                      _mm256_cmp_ps(length, tiny, _CMP_GE_OQ));
+  const __m256 scale =
+      _mm256_and_ps(_mm256_div_ps(constraint, _mm256_max_ps(length, tiny)), active);
+  qx = _mm256_fnmadd_ps(scale, dx, x);
+  qy = _mm256_fnmadd_ps(scale, dy, y);
+  qz = _mm256_fnmadd_ps(scale, dz, z);
+}
+
+// Lanes where |q − c| ≤ r (1 + slack).
+[[gnu::target("avx2,fma")]] inline __m256 insideBall(__m256 qx, __m256 qy, __m256 qz,
+                                                     const Eight& c, __m256 r) {
+  const __m256 length =
+      norm(_mm256_sub_ps(qx, c.x), _mm256_sub_ps(qy, c.y), _mm256_sub_ps(qz, c.z));
+  return _mm256_cmp_ps(length, _mm256_mul_ps(r, _mm256_set1_ps(1 + tether_detail::kInsideSlack)),
+                       _CMP_LE_OQ);
+}
+
+// projectOntoTetherPair, eight at a time, branch-free: every candidate is computed and the
+// lanes pick theirs.
+[[gnu::target("avx2,fma")]] inline void projectOntoBallPair(__m256& x, __m256& y, __m256& z,
+                                                            const Eight& a, __m256 ra,
+                                                            const Eight& b, __m256 rb) {
+  const __m256 tiny = _mm256_set1_ps(kTiny), zero = _mm256_setzero_ps();
+  __m256 ax, ay, az, bx, by, bz;
+  projectOntoBall(x, y, z, a, ra, ax, ay, az);
+  projectOntoBall(x, y, z, b, rb, bx, by, bz);
+  const __m256 takeA = insideBall(ax, ay, az, b, rb);
+  const __m256 takeB = insideBall(bx, by, bz, a, ra);
+  // The circle where the spheres meet: centre m = a + s u, radius √(ra² − s²).
+  const __m256 ux0 = _mm256_sub_ps(b.x, a.x), uy0 = _mm256_sub_ps(b.y, a.y),
+               uz0 = _mm256_sub_ps(b.z, a.z);
+  const __m256 distance = norm(ux0, uy0, uz0);
+  const __m256 apart = _mm256_cmp_ps(distance, tiny, _CMP_GE_OQ);
+  const __m256 safe = _mm256_max_ps(distance, tiny);
+  const __m256 ux = _mm256_div_ps(ux0, safe), uy = _mm256_div_ps(uy0, safe),
+               uz = _mm256_div_ps(uz0, safe);
+  const __m256 s = _mm256_div_ps(
+      _mm256_fmadd_ps(distance, distance, _mm256_fmsub_ps(ra, ra, _mm256_mul_ps(rb, rb))),
+      _mm256_add_ps(safe, safe));
+  const __m256 radius =
+      _mm256_sqrt_ps(_mm256_max_ps(_mm256_fnmadd_ps(s, s, _mm256_mul_ps(ra, ra)), zero));
+  const __m256 mx = _mm256_fmadd_ps(s, ux, a.x), my = _mm256_fmadd_ps(s, uy, a.y),
+               mz = _mm256_fmadd_ps(s, uz, a.z);
+  const __m256 tx = _mm256_sub_ps(x, mx), ty = _mm256_sub_ps(y, my), tz = _mm256_sub_ps(z, mz);
+  const __m256 along = _mm256_fmadd_ps(tx, ux, _mm256_fmadd_ps(ty, uy, _mm256_mul_ps(tz, uz)));
+  const __m256 ox = _mm256_fnmadd_ps(along, ux, tx), oy = _mm256_fnmadd_ps(along, uy, ty),
+               oz = _mm256_fnmadd_ps(along, uz, tz);
+  const __m256 offset = norm(ox, oy, oz);
+  const __m256 scale = _mm256_and_ps(_mm256_div_ps(radius, _mm256_max_ps(offset, tiny)),
+                                     _mm256_cmp_ps(offset, tiny, _CMP_GT_OQ));
+  __m256 cx = _mm256_fmadd_ps(scale, ox, mx), cy = _mm256_fmadd_ps(scale, oy, my),
+         cz = _mm256_fmadd_ps(scale, oz, mz);
+  cx = _mm256_blendv_ps(ax, cx, apart);
+  cy = _mm256_blendv_ps(ay, cy, apart);
+  cz = _mm256_blendv_ps(az, cz, apart);
+  x = _mm256_blendv_ps(_mm256_blendv_ps(cx, bx, takeB), ax, takeA);
+  y = _mm256_blendv_ps(_mm256_blendv_ps(cy, by, takeB), ay, takeA);
+  z = _mm256_blendv_ps(_mm256_blendv_ps(cz, bz, takeB), az, takeA);
+}
+
 // Eight consecutive ranks [a, a + 8), every layer that reaches any of them reaching all eight.
 [[gnu::target("avx2,fma")]] void projectEight(const TetherConstraints& pool, Index a, Vec3* p,
                                               std::size_t layerCount) {
   const float* base = reinterpret_cast<const float*>(p);
   const auto& layers = pool.coloring.colorOffset;
-  const __m256 tiny = _mm256_set1_ps(kTiny), zero = _mm256_setzero_ps();
   __m256i vertex, pin;
   loadPairs(pool, layers[0] + a, vertex, pin);
   // Ranks of equal tether count are in vertex order, so the eight vertices are often
@@ -96,35 +195,20 @@ inline void projectVertex(const TetherConstraints& pool, Index rank, Vec3* p, co
     y = _mm256_i32gather_ps(base + 1, vertex3, 4);
     z = _mm256_i32gather_ps(base + 2, vertex3, 4);
   }
-  for (std::size_t k = 0; k < layerCount && layers[k] + a < layers[k + 1]; ++k) {
-    const Index c = layers[k] + a;
-    if (k > 0) loadPairs(pool, c, vertex, pin);
-    // Neighbouring vertices mostly share their pin in a layer: then one broadcast serves all.
-    const __m256i firstPin = _mm256_set1_epi32(_mm256_cvtsi256_si32(pin));
-    __m256 px, py, pz;
-    if (_mm256_movemask_epi8(_mm256_cmpeq_epi32(pin, firstPin)) == -1) {
-      const Vec3& shared = p[_mm256_cvtsi256_si32(pin)];
-      px = _mm256_set1_ps(shared.x());
-      py = _mm256_set1_ps(shared.y());
-      pz = _mm256_set1_ps(shared.z());
-    } else {
-      const __m256i pin3 = _mm256_add_epi32(_mm256_slli_epi32(pin, 1), pin);
-      px = _mm256_i32gather_ps(base, pin3, 4);
-      py = _mm256_i32gather_ps(base + 1, pin3, 4);
-      pz = _mm256_i32gather_ps(base + 2, pin3, 4);
+  auto reaches = [&](std::size_t k) { return k < layerCount && layers[k] + a < layers[k + 1]; };
+  for (std::size_t k = 0; reaches(k); k += 2) {
+    Eight pinA, pinB;
+    if (k > 0) loadPairs(pool, layers[k] + a, vertex, pin);
+    loadPins(pool, p, base, pin, pinA);
+    const __m256 ra = _mm256_loadu_ps(pool.rest.data() + layers[k] + a);
+    if (!reaches(k + 1)) {
+      projectOntoBall(x, y, z, pinA, ra, x, y, z);
+      continue;
     }
-    const __m256 dx = _mm256_sub_ps(x, px), dy = _mm256_sub_ps(y, py), dz = _mm256_sub_ps(z, pz);
-    const __m256 length =
-        _mm256_sqrt_ps(_mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz))));
-    const __m256 constraint = _mm256_sub_ps(length, _mm256_loadu_ps(pool.rest.data() + c));
-    const __m256 active = _mm256_and_ps(_mm256_cmp_ps(constraint, zero, _CMP_GT_OQ),
-                                        _mm256_cmp_ps(length, tiny, _CMP_GE_OQ));
-    // x −= d C/|d| where the tether is stretched.
-    const __m256 scale =
-        _mm256_and_ps(_mm256_div_ps(constraint, _mm256_max_ps(length, tiny)), active);
-    x = _mm256_fnmadd_ps(scale, dx, x);
-    y = _mm256_fnmadd_ps(scale, dy, y);
-    z = _mm256_fnmadd_ps(scale, dz, z);
+    loadPairs(pool, layers[k + 1] + a, vertex, pin);
+    loadPins(pool, p, base, pin, pinB);
+    const __m256 rb = _mm256_loadu_ps(pool.rest.data() + layers[k + 1] + a);
+    projectOntoBallPair(x, y, z, pinA, ra, pinB, rb);
   }
   if (consecutive) {
     storeEight(reinterpret_cast<float*>(p) + 3 * std::size_t(first), x, y, z);

@@ -17,6 +17,7 @@
 #include "engine/src/world_state.h"
 #include "nucleon/shapes.h"
 #include "nucleon/world.h"
+#include "sim_test_context.h"
 #include "systems/build_hierarchy.h"
 
 namespace nucleon {
@@ -334,6 +335,42 @@ TEST(Hierarchy, ClothWithPinnedRow) {
   // where a level would drop fewer than a tenth of its particles, with more than the pins left.
   EXPECT_GT(h.levels.back().particles.size(), 64u);
   EXPECT_GT(h.levels.size(), 2u);
+}
+
+// Each coarse level carries the tethers of its particles, the pool's own (pin and limit), so the
+// cascade holds a coarse particle as the fine tether sweep holds it; the fine level carries none.
+TEST(Hierarchy, CoarseLevelsCarryTheirParticlesTethers) {
+  ObjectDef cloth = grid(64);
+  cloth.pins = {0, 63};
+  World world;
+  world.setSolver(test::solverSettings(SolverKind::Multigrid, 4, 1));
+  world.addCloth(cloth);
+  world.step(1.0 / 60);  // builds the derived tables, the hierarchies and their tethers
+  const WorldState& state = world.impl().state;
+  const TetherConstraints& pool = state.constraints.tether;
+  std::map<Index, std::set<std::pair<Index, Real>>> expected;
+  for (std::size_t c = 0; c < pool.size(); ++c)
+    expected[pool.particles[c][0]].insert({pool.particles[c][1], pool.rest[c]});
+  ASSERT_EQ(state.hierarchies.objects.size(), 1u);
+  const ObjectHierarchy& h = state.hierarchies.objects[0];
+  ASSERT_GE(h.levels.size(), 3u);
+  EXPECT_TRUE(h.levels[0].tetherOffset.empty());
+  std::size_t checked = 0;
+  for (std::size_t l = 1; l < h.levels.size(); ++l) {
+    const HierarchyLevel& level = h.levels[l];
+    ASSERT_EQ(level.tetherOffset.size(), level.particles.size() + 1) << "level " << l;
+    for (std::size_t k = 0; k < level.particles.size(); ++k) {
+      std::set<std::pair<Index, Real>> got;
+      for (Index t = level.tetherOffset[k]; t < level.tetherOffset[k + 1]; ++t)
+        got.insert({level.tetherPin[t], level.tetherLimit[t]});
+      const auto it = expected.find(level.particles[k]);
+      using Tethers = std::set<std::pair<Index, Real>>;
+      EXPECT_EQ(got, it == expected.end() ? Tethers{} : it->second)
+          << "level " << l << " particle " << level.particles[k];
+      checked += got.size();
+    }
+  }
+  EXPECT_GT(checked, 0u);
 }
 
 // A straight rope of 200 segments: the ends have one neighbour and stay coarse, and in index order

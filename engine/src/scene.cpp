@@ -53,6 +53,21 @@ class Reader {
                         std::to_string(x));
     return static_cast<int>(x);
   }
+  // Sweeps per multigrid level: one integer for every level, or a list, level 1 first.
+  std::vector<int> levelSweeps(const char* key) const {
+    const Json& v = j_.at(key);
+    auto check = [&](const Json& x) {
+      if (!x.is_number_integer()) fail(at(key), "expected an integer or a list of integers");
+      const long long n = x.get<long long>();
+      if (n < 0 || n > 1000) fail(at(key), "sweeps must be in [0, 1000], got " + std::to_string(n));
+      return static_cast<int>(n);
+    };
+    if (!v.is_array()) return {check(v)};
+    if (v.empty() || v.size() > 64) fail(at(key), "expected 1 to 64 values");
+    std::vector<int> out;
+    for (const Json& x : v) out.push_back(check(x));
+    return out;
+  }
   bool boolean(const char* key, bool fallback) const {
     if (!has(key)) return fallback;
     if (!j_.at(key).is_boolean()) fail(at(key), "expected true or false");
@@ -567,7 +582,8 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
   }
   if (top.has("solver")) {
     const Reader s = top.child("solver");
-    s.allowOnly({"type", "iterations", "substeps", "relaxation", "sweeps_per_level", "schedule"});
+    s.allowOnly({"type", "iterations", "substeps", "relaxation", "sweeps_per_level",
+                 "cascade_every", "schedule"});
     const std::string type = s.string("type", toString(scene.solver.kind));
     if (!parseSolverKind(type, scene.solver.kind))
       s.fail(s.at("type"), "unknown solver '" + type + "'");
@@ -575,8 +591,8 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     scene.solver.substeps = s.integer("substeps", scene.solver.substeps, 1, 10000);
     scene.solver.relaxation =
         static_cast<Real>(s.number("relaxation", scene.solver.relaxation, 0.01, 1.99));
-    scene.solver.sweepsPerLevel =
-        s.integer("sweeps_per_level", scene.solver.sweepsPerLevel, 0, 1000);
+    if (s.has("sweeps_per_level")) scene.solver.sweepsPerLevel = s.levelSweeps("sweeps_per_level");
+    scene.solver.cascadeEvery = s.integer("cascade_every", scene.solver.cascadeEvery, 0, 100000);
     if (s.has("schedule")) {
       if (s.has("iterations"))
         s.fail("give either 'iterations' (every family) or 'schedule' (per family), not both");

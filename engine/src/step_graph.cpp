@@ -14,6 +14,16 @@
 namespace nucleon {
 namespace {
 
+// The multigrid cascade's hook: contacts are projected between its levels as between sweep
+// rounds, so a particle the cascade pulls toward a collider is held by its contact.
+void projectAllContacts(void* state) {
+  WorldState& w = *static_cast<WorldState*>(state);
+  if (w.primitiveContacts.size() > 0)
+    projectPrimitiveContacts(w.primitiveContacts, w.particles, SolverKind::ColoredGaussSeidel);
+  if (w.contacts.size() > 0)
+    projectContacts(w.contacts, w.colliders, w.particles, SolverKind::ColoredGaussSeidel);
+}
+
 enum Stage {
   kForces,
   kAnimate,
@@ -149,22 +159,28 @@ void StepGraph::runStage(int stage) {
       CrossingReport crossing;
       profile.solve += timed([&] {
         if (s.solver.kind == SolverKind::Multigrid) {
-          // Contacts are projected between the cascade's levels as between sweep rounds.
-          auto projectAllContacts = [](void* state) {
-            WorldState& w = *static_cast<WorldState*>(state);
-            if (w.primitiveContacts.size() > 0)
-              projectPrimitiveContacts(w.primitiveContacts, w.particles,
-                                       SolverKind::ColoredGaussSeidel);
-            if (w.contacts.size() > 0)
-              projectContacts(w.contacts, w.colliders, w.particles, SolverKind::ColoredGaussSeidel);
-          };
           cascadeProjections =
               runMultigridCascade(s.hierarchies, s.objects, s.particles, s.cascadeStart,
                                   s.solver.sweepsPerLevel, projectAllContacts, &s);
         }
-        contactSeconds =
-            solveConstraints(s.constraints, s.particles, s.plan, s.contacts, s.colliders,
-                             s.primitiveContacts, s.solver.kind, h_, s.solver.relaxation);
+        // Multigrid repeats its cascade between fine rounds when the schedule asks for it.
+        struct Repeat {
+          WorldState& state;
+          std::size_t projections = 0;
+        } repeat{s};
+        auto repeatCascade = [](void* context, int roundsDone) {
+          Repeat& r = *static_cast<Repeat*>(context);
+          WorldState& w = r.state;
+          if (w.solver.cascadeEvery <= 0 || roundsDone % w.solver.cascadeEvery != 0) return;
+          r.projections +=
+              runMultigridCascade(w.hierarchies, w.objects, w.particles, w.cascadeStart,
+                                  w.solver.sweepsPerLevel, projectAllContacts, &w);
+        };
+        const bool repeats = s.solver.kind == SolverKind::Multigrid && s.solver.cascadeEvery > 0;
+        contactSeconds = solveConstraints(
+            s.constraints, s.particles, s.plan, s.contacts, s.colliders, s.primitiveContacts,
+            s.solver.kind, h_, s.solver.relaxation, repeats ? +repeatCascade : nullptr, &repeat);
+        cascadeProjections += repeat.projections;
         if (s.colliders.size() > 0)
           contactSeconds +=
               timed([&] { missed = resolveMissedContacts(s.contacts, s.colliders, s.particles); });

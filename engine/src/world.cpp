@@ -450,8 +450,11 @@ void World::setSolver(const SolverSettings& settings) {
   require(std::isfinite(settings.relaxation) && settings.relaxation > 0 && settings.relaxation < 2,
           "relaxation must be in (0, 2)");
   validateSchedule(settings.schedule, "solver schedule");
-  require(settings.sweepsPerLevel >= 0 && settings.sweepsPerLevel <= 1000,
-          "sweeps per level must be in [0, 1000]");
+  require(settings.sweepsPerLevel.size() <= 64, "at most 64 sweeps-per-level values");
+  for (int sweeps : settings.sweepsPerLevel)
+    require(sweeps >= 0 && sweeps <= 1000, "sweeps per level must be in [0, 1000]");
+  require(settings.cascadeEvery >= 0 && settings.cascadeEvery <= 100000,
+          "cascade_every must be in [0, 100000]");
   impl_->state.solver = settings;
   impl_->state.topologyDirty = true;  // the sweep plan follows the schedule
 }
@@ -478,9 +481,11 @@ void World::step(double dt) {
   if (s.topologyDirty) {  // derived tables, rebuilt outside the step so a step never allocates
     buildDerivedTables(s.constraints, s.particles, s.solver.kind);
     buildCollisionPrimitives(s.primitives, s.objects, s.excludedObjectPairs);
-    if (s.solver.kind == SolverKind::Multigrid)
+    if (s.solver.kind == SolverKind::Multigrid) {
       buildLevelHierarchies(s.hierarchies, s.objects, s.particles);
-    else
+      attachLevelTethers(s.hierarchies, s.constraints.tether, s.particles.size());
+      s.cascadeStart.resize(s.particles.size());
+    } else
       s.hierarchies.objects.clear();
     s.plan = buildSweepPlan(s.solver, s.objects, s.constraints, s.particles);
     s.topologyDirty = false;

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "nucleon/schedule.h"
 #include "nucleon/types.h"
@@ -17,12 +18,19 @@ struct SolverSettings {
   SolverKind kind = SolverKind::GaussSeidel;
   int iterations = 10;  // sweeps per substep of every family, when `schedule` is empty
   int substeps = 1;     // substeps per step(dt)
-  // Jacobi relaxation ω in (0, 2): each particle moves by ω times the average of its
-  // constraints' corrections. Ignored by the Gauss–Seidel backends.
+  // Jacobi relaxation γ in (0, 2): the plain step moves each particle by γ times the average of
+  // its constraints' corrections, before the Chebyshev acceleration scales it (ARCHITECTURE.md
+  // §3, jacobi). Ignored by the Gauss–Seidel backends.
   Real relaxation = 1;
   // Multigrid: sweeps of each coarse level in the coarse-to-fine cascade that precedes the fine
-  // sweeps of every substep (ARCHITECTURE.md §3).
-  int sweepsPerLevel = 4;
+  // sweeps of every substep (ARCHITECTURE.md §3), level 1 (the finest coarse level) first; a
+  // level beyond the list takes its last value. Few sweeps where a level is large, many where
+  // it is small: a level has a quarter of the particles of the one below, so sixteen sweeps of
+  // level 3 cost what one of level 1 does. Empty, or 0 for level 1: no cascade.
+  std::vector<int> sweepsPerLevel = {1, 4, 16, 32};
+  // Multigrid: the cascade also runs again after every `cascadeEvery` fine sweep rounds (0: only
+  // before the first), each time from the positions the fine sweeps left.
+  int cascadeEvery = 0;
   // Per-family sweep counts and order; empty = every family `iterations` times, in the order
   // stretch, tether, shear, bend, twist, volume.
   Schedule schedule;

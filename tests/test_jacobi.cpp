@@ -1,0 +1,135 @@
+// The Jacobi backend: Chebyshev-accelerated, mass-split averaged sweeps (constraint_sweeps.h,
+// jacobi_chebyshev.h). Convergence against colored Gauss–Seidel, determinism across thread
+// counts, a free cloth on a sphere, and the validation of its setting.
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "systems/jacobi_chebyshev.h"
+#include "tests/sim_test_context.h"
+
+namespace nucleon {
+namespace {
+
+Measures runScene(const std::string& name, SolverKind kind, int threads) {
+  Scene scene = loadScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/" + name + ".json");
+  scene.solver.kind = kind;
+  scene.solver.iterations = 10;
+  scene.threads = threads;
+  World world = buildWorld(scene);
+  test::simulate(world, scene.frames, 1.0 / scene.fps);
+  EXPECT_EQ(world.recoveries().total(), 0u) << name << " " << toString(kind);
+  return world.measure();
+}
+
+// Wang 2015 eq. 12: ω_1 = 1, ω_2 = 2/(2 − ρ²), ω_{k+1} = 4/(4 − ρ² ω_k), after the delay; the
+// sequence decreases towards 2/(1 + √(1 − ρ²)). Exact arithmetic up to float rounding (1e-6).
+TEST(JacobiChebyshev, WeightsFollowTheRecurrence) {
+  const Real rho = Real(0.9);
+  EXPECT_EQ(chebyshevWeight(0, rho, 1), 1);
+  EXPECT_EQ(chebyshevWeight(1, rho, 1), 1);  // ω_1
+  const Real second = 2 / (2 - rho * rho);
+  EXPECT_NEAR(chebyshevWeight(2, rho, 1), second, 1e-6);
+  EXPECT_NEAR(chebyshevWeight(3, rho, 1), 4 / (4 - rho * rho * second), 1e-6);
+  const Real limit = 2 / (1 + std::sqrt(1 - rho * rho));
+  EXPECT_NEAR(chebyshevWeight(1000, rho, 1), limit, 1e-5);
+  for (int k = 3; k < 40; ++k) {
+    EXPECT_LE(chebyshevWeight(k, rho, 1), chebyshevWeight(k - 1, rho, 1) + 1e-6);
+    EXPECT_GT(chebyshevWeight(k, rho, 1), 1);
+    EXPECT_LT(chebyshevWeight(k, rho, 1), 2);
+  }
+  // The defaults, ρ = 0.98 after one plain sweep: ω = 1 on the first two sweeps, ω_2 = 1.924 on
+  // the third, then down towards 2/(1 + √(1 − 0.98²)) = 1.668.
+  EXPECT_EQ(chebyshevWeight(0), 1);
+  EXPECT_EQ(chebyshevWeight(1), 1);
+  EXPECT_NEAR(chebyshevWeight(2), 2 / (2 - Real(0.98 * 0.98)), 1e-6);
+  EXPECT_LT(chebyshevWeight(50), Real(1.67));
+}
+
+// The counter gives each pool its own 0-based sweep index.
+TEST(JacobiChebyshev, CounterCountsPerPool) {
+  JacobiSweepCounter counter;
+  int first = 0, second = 0;
+  EXPECT_EQ(counter.next(&first), 0);
+  EXPECT_EQ(counter.next(&second), 0);
+  EXPECT_EQ(counter.next(&first), 1);
+  EXPECT_EQ(counter.next(&first), 2);
+  EXPECT_EQ(counter.next(&second), 1);
+}
+
+// cloth_hang_128 after its 120 frames at 10 sweeps, 2 threads. Measured with the present build:
+// jacobi mean 0.0204, p99 0.125, max 0.32; colored-gs mean 0.0244, p99 0.237, max 0.55. The test
+// asserts "no worse than colored-gs" on all three; the margins (16%, 47%, 42%) absorb small
+// changes of either backend without hiding a regression of the acceleration, which without it
+// leaves mean 0.30, p99 1.86 (ten times worse). On cloth_hang_256 jacobi is not yet as good
+// (mean 0.26 against 0.026), which this test does not claim.
+TEST(JacobiConvergence, HangingClothNoWorseThanColoredGaussSeidel) {
+  const Measures jacobi = runScene("cloth_hang_128", SolverKind::Jacobi, 2);
+  const Measures colored = runScene("cloth_hang_128", SolverKind::ColoredGaussSeidel, 2);
+  EXPECT_LE(jacobi.meanStrain, colored.meanStrain)
+      << "jacobi " << jacobi.meanStrain << ", colored-gs " << colored.meanStrain;
+  EXPECT_LE(jacobi.strainP99, colored.strainP99)
+      << "jacobi " << jacobi.strainP99 << ", colored-gs " << colored.strainP99;
+  EXPECT_LE(jacobi.maxStrain, colored.maxStrain)
+      << "jacobi " << jacobi.maxStrain << ", colored-gs " << colored.maxStrain;
+  EXPECT_EQ(jacobi.nanCount, 0u);
+}
+
+// The accelerated sweep (batched and scalar paths, the per-pool counter, the slots' history)
+// gives bitwise the same positions for 1 and 2 threads: blocks of eight from constraint 0, a
+// fixed-order gather, no atomics. 40 steps carry the hanging cloth well into its swing, where
+// every sweep after the delay is accelerated.
+TEST(JacobiDeterminism, SamePositionsForOneAndTwoThreads) {
+  std::vector<Vec3> positions[2];
+  for (int threads : {1, 2}) {
+    World world = test::hangingCloth(48, 10, 2, threads);
+    world.setSolver(test::solverSettings(SolverKind::Jacobi, 10, 2));
+    test::simulate(world, 40);
+    const auto p = world.positions();
+    positions[threads - 1].assign(p.begin(), p.end());
+  }
+  ASSERT_EQ(positions[0].size(), positions[1].size());
+  for (std::size_t i = 0; i < positions[0].size(); ++i)
+    ASSERT_EQ(positions[0][i], positions[1][i]) << "particle " << i;
+}
+
+// A free 64×64 cloth dropped on a sphere (cloth_sphere) under jacobi: finite, no repairs, and it
+// stays on the sphere (radius 0.5 at the origin). Measured: min height −1.41 (the edges hang
+// down past the sphere's lower half), 0 recoveries; with ρ = 0.99 the run needed 10 to 31
+// repairs, and unaccelerated Jacobi let the cloth slide off entirely (min height −13 after
+// 2 s). −2 m leaves room for the hanging edges, not for a fall.
+TEST(JacobiStability, FreeClothOnSphereStaysFiniteAndOnTheSphere) {
+  for (int threads : {1, 2}) {
+    const Measures m = runScene("cloth_sphere", SolverKind::Jacobi, threads);
+    EXPECT_EQ(m.nanCount, 0u);
+    EXPECT_GT(m.minHeight, -2.0);
+    EXPECT_TRUE(std::isfinite(m.kineticEnergy));
+  }
+}
+
+// The Jacobi setting (γ, `relaxation`) is checked where it enters: the world and the scene file.
+TEST(JacobiSettings, BadRelaxationIsRejected) {
+  for (Real bad : {Real(0), Real(2), Real(-1), std::numeric_limits<Real>::quiet_NaN(),
+                   std::numeric_limits<Real>::infinity()}) {
+    World world;
+    SolverSettings settings = test::solverSettings(SolverKind::Jacobi, 10, 1);
+    settings.relaxation = bad;
+    try {
+      world.setSolver(settings);
+      ADD_FAILURE() << "relaxation " << bad << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("relaxation"), std::string::npos) << e.what();
+    }
+  }
+  const std::string scene =
+      R"({"name": "t", "frames": 1, "solver": {"type": "jacobi", "relaxation": 2.5},
+          "objects": []})";
+  EXPECT_NE(test::sceneError(scene).find("relaxation"), std::string::npos)
+      << test::sceneError(scene);
+}
+
+}  // namespace
+}  // namespace nucleon
