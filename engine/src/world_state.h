@@ -8,17 +8,17 @@
 
 #include <tbb/task_arena.h>
 
-#include "components/collider_pool.h"
-#include "components/constraint_pools.h"
 #include "components/candidate_pairs.h"
+#include "components/collider_pool.h"
 #include "components/collision_primitives.h"
+#include "components/constraint_pools.h"
 #include "components/contact_pool.h"
-#include "components/primitive_bvh.h"
-#include "components/primitive_contact_pool.h"
 #include "components/kinematic_tracks.h"
 #include "components/level_hierarchy.h"
 #include "components/objects.h"
 #include "components/particles.h"
+#include "components/primitive_bvh.h"
+#include "components/primitive_contact_pool.h"
 #include "components/sweep_plan.h"
 #include "nucleon/world.h"
 
@@ -36,9 +36,9 @@ struct WorldState {
   GroundPlane ground;
   std::vector<PlaneCollider> planes;
   std::vector<SphereCollider> spheres;
-  ColliderPool colliders;       // static lifetime: rebuilt when a collider is added or changed
-  ContactPool contacts;         // per-substep lifetime: refilled by contact detection every substep
-  SweepPlan plan;               // from solver.schedule and the objects' schedules
+  ColliderPool colliders;  // static lifetime: rebuilt when a collider is added or changed
+  ContactPool contacts;    // per-substep lifetime: refilled by contact detection every substep
+  SweepPlan plan;          // from solver.schedule and the objects' schedules
   // The multigrid backend's level hierarchies (static, built with the derived tables when that
   // backend is chosen) and its cascade's scratch (the positions when the cascade began).
   LevelHierarchies hierarchies;
