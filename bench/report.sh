@@ -84,6 +84,11 @@ peer_header='| N | K | engine | tethers | ms/step | Bullet / this | max / mean /
   echo "$peer_header"
   peer_rows hanging 0 jacobi
   echo
+  echo "## Hanging cloth, structural links: nucleon multigrid against Bullet"
+  echo
+  echo "$peer_header"
+  peer_rows hanging 0 multigrid
+  echo
   echo "## Where nucleon's time goes (hanging, colored-gs; ms per step from the engine's profile)"
   echo
   echo "| N | K | tethers | step | forces | predict | solve | collisions | update | M projections/s |"
