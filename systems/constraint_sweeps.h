@@ -36,6 +36,7 @@ struct SweepContext {
   // Jacobi sweeps of each pool so far in this solve: the Chebyshev weight follows the sweep's
   // index. A context lives for one substep's solve, so the count restarts with every substep.
   mutable JacobiSweepCounter jacobiSweeps{};
+  Real chebyshevRho = kChebyshevSpectralRadius;  // Jacobi: the spectral radius estimate ρ
 };
 
 namespace sweep_detail {
@@ -176,7 +177,7 @@ NUCLEON_KERNEL void jacobiOne(ConstraintPool<N>& pool, std::size_t c, const Swee
 template <class Kernel, std::size_t N>
 void solveJacobi(ConstraintPool<N>& pool, const SweepContext& context) {
   const Real invH = 1 / context.h;
-  const Real omega = chebyshevWeight(context.jacobiSweeps.next(&pool));
+  const Real omega = chebyshevWeight(context.jacobiSweeps.next(&pool), context.chebyshevRho);
   sweep_detail::JacobiFactors factors;
   factors.relaxation = context.relaxation;
   factors.step = omega * context.relaxation;

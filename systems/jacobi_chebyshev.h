@@ -25,7 +25,8 @@ namespace nucleon {
 // 0.21 at ρ = 0.98 and 0.05 at ρ = 0.995. But the recurrence extrapolates hardest where a sweep's
 // correction is least reliable, at contacts: a free cloth dropped on a sphere needed 10 to 72
 // contact repairs from ρ = 0.99 up and none at 0.98 or below, so ρ = 0.98 (ω ≤ 1.93; Wang 2015
-// §5 likewise lowers ρ for triangle meshes). Measurements: ARCHITECTURE.md §3, jacobi.
+// §5 likewise lowers ρ for triangle meshes). Measurements: ARCHITECTURE.md §3, jacobi. The
+// default of SolverSettings::chebyshevRho (scene key `chebyshev_rho`).
 constexpr Real kChebyshevSpectralRadius = Real(0.98);
 // Plain sweeps before ω_1 (Wang 2015 §4.3 delays the acceleration while a nonlinear solve is far
 // from its linear regime). One: the first extrapolated sweep is then the third, so a schedule of

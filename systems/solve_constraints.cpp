@@ -59,12 +59,14 @@ void forFamilyPools(ConstraintFamily family, Pools& pools, F&& f) {
 double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const SweepPlan& plan,
                         ContactPool& contacts, const ColliderPool& colliders,
                         PrimitiveContactPool& primitiveContacts, SolverKind kind, Real h,
-                        Real relaxation, RoundHook betweenRounds, void* hookContext) {
+                        Real relaxation, Real chebyshevRho, RoundHook betweenRounds,
+                        void* hookContext) {
   // Multigrid's fine sweeps are colored Gauss–Seidel sweeps (its cascade runs before them).
   if (kind == SolverKind::Multigrid) kind = SolverKind::ColoredGaussSeidel;
   const bool anyContacts = contacts.size() > 0 || primitiveContacts.size() > 0;
   pools.forEach([](auto& pool) { std::fill(pool.lambda.begin(), pool.lambda.end(), Real(0)); });
   SweepContext context{particles, h, relaxation, nullptr};
+  context.chebyshevRho = chebyshevRho;
   double contactSeconds = 0;
   int roundsDone = 0;
   for (const SweepOp& op : plan.ops) {

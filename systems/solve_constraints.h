@@ -24,7 +24,7 @@ using RoundHook = void (*)(void* context, int roundsDone);
 double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const SweepPlan& plan,
                         ContactPool& contacts, const ColliderPool& colliders,
                         PrimitiveContactPool& primitiveContacts, SolverKind kind, Real h,
-                        Real relaxation, RoundHook betweenRounds = nullptr,
+                        Real relaxation, Real chebyshevRho, RoundHook betweenRounds = nullptr,
                         void* context = nullptr);
 
 // Constraint projections one substep of `plan` performs (for throughput figures).

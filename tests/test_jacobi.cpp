@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -128,6 +129,38 @@ TEST(JacobiSettings, BadRelaxationIsRejected) {
       R"({"name": "t", "frames": 1, "solver": {"type": "jacobi", "relaxation": 2.5},
           "objects": []})";
   EXPECT_NE(test::sceneError(scene).find("relaxation"), std::string::npos)
+      << test::sceneError(scene);
+}
+
+// ρ is scene data: a 64² cloth hung from two corners, 60 steps of 10 Jacobi sweeps. ρ = 0 is the
+// plain iteration (ω = 1 throughout). Measured mean strain: plain 0.050, ρ = 0.9 0.033,
+// ρ = 0.98 0.050. On a cloth this small a snapshot after 1 s is not monotone in ρ (at 256² the
+// gain grows with ρ: mean 0.21 at 0.98, 0.05 at 0.995), so the test asserts that ρ reaches the
+// sweep (three different results) and that moderate acceleration beats the plain iteration.
+TEST(JacobiSettings, SpectralRadiusEstimateIsASettingAndHelpsConvergence) {
+  auto hang = [](Real rho) {
+    World world = test::hangingCloth(64, 10);
+    SolverSettings settings = test::solverSettings(SolverKind::Jacobi, 10, 1);
+    settings.chebyshevRho = rho;
+    world.setSolver(settings);
+    test::simulate(world, 60);
+    EXPECT_EQ(world.recoveries().total(), 0u);
+    return std::make_pair(world.measure().meanStrain, world.stateHash());
+  };
+  const auto plain = hang(0), low = hang(Real(0.9)), high = hang(Real(0.98));
+  EXPECT_LT(low.first, 0.8 * plain.first) << plain.first << " " << low.first;
+  EXPECT_NE(plain.second, low.second);
+  EXPECT_NE(low.second, high.second);
+  for (Real bad : {Real(-0.1), Real(1), std::numeric_limits<Real>::quiet_NaN()}) {
+    World world;
+    SolverSettings settings = test::solverSettings(SolverKind::Jacobi, 10, 1);
+    settings.chebyshevRho = bad;
+    EXPECT_THROW(world.setSolver(settings), std::invalid_argument) << bad;
+  }
+  const std::string scene =
+      R"({"name": "t", "frames": 1, "solver": {"type": "jacobi", "chebyshev_rho": 1.5},
+          "objects": []})";
+  EXPECT_NE(test::sceneError(scene).find("chebyshev_rho"), std::string::npos)
       << test::sceneError(scene);
 }
 

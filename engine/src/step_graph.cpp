@@ -177,9 +177,10 @@ void StepGraph::runStage(int stage) {
                                   w.solver.sweepsPerLevel, projectAllContacts, &w);
         };
         const bool repeats = s.solver.kind == SolverKind::Multigrid && s.solver.cascadeEvery > 0;
-        contactSeconds = solveConstraints(
-            s.constraints, s.particles, s.plan, s.contacts, s.colliders, s.primitiveContacts,
-            s.solver.kind, h_, s.solver.relaxation, repeats ? +repeatCascade : nullptr, &repeat);
+        contactSeconds =
+            solveConstraints(s.constraints, s.particles, s.plan, s.contacts, s.colliders,
+                             s.primitiveContacts, s.solver.kind, h_, s.solver.relaxation,
+                             s.solver.chebyshevRho, repeats ? +repeatCascade : nullptr, &repeat);
         cascadeProjections += repeat.projections;
         if (s.colliders.size() > 0)
           contactSeconds +=

@@ -22,6 +22,10 @@ struct SolverSettings {
   // its constraints' corrections, before the Chebyshev acceleration scales it (ARCHITECTURE.md
   // §3, jacobi). Ignored by the Gauss–Seidel backends.
   Real relaxation = 1;
+  // Jacobi's Chebyshev acceleration: the estimate ρ ∈ [0, 0.9999] of the plain iteration's
+  // spectral radius (0: no acceleration). Higher converges faster on a hanging cloth and
+  // extrapolates harder through contacts (ARCHITECTURE.md §3, jacobi). Ignored by the others.
+  Real chebyshevRho = Real(0.98);
   // Multigrid: sweeps of each coarse level in the coarse-to-fine cascade that precedes the fine
   // sweeps of every substep (ARCHITECTURE.md §3), level 1 (the finest coarse level) first; a
   // level beyond the list takes its last value. Few sweeps where a level is large, many where
