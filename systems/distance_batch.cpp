@@ -17,9 +17,34 @@ static_assert(std::is_same_v<Real, float>, "the batched distance path is float-o
 
 namespace {
 
+// The XPBD step of eight distance constraints, shared by the colored and the Jacobi batches:
+// Δλ = (−C − α̃λ) / (w_a + w_b + α̃) and Δλ n = Δλ (x_a − x_b)/|x_a − x_b| share one division,
+// scale = (−C − α̃λ) / ((w_a + w_b + α̃) |x_a − x_b|) and Δλ = scale |x_a − x_b|. α̃ is the
+// stretch or the compression compliance over h², by the sign of C; lanes with a degenerate
+// edge, two fixed ends or (unilateral) a slack tether get scale 0.
+[[gnu::target("avx2,fma")]] inline __m256 multiplierScale(__m256 length, __m256 rest,
+                                                          __m256 stretchCompliance,
+                                                          __m256 compressionCompliance,
+                                                          __m256 lambda, __m256 wa, __m256 wb,
+                                                          __m256 inverseH2, bool unilateral) {
+  const __m256 tiny = _mm256_set1_ps(1e-12f), zero = _mm256_setzero_ps();
+  const __m256 constraint = _mm256_sub_ps(length, rest);
+  const __m256 below = _mm256_cmp_ps(constraint, zero, _CMP_LT_OQ);
+  const __m256 alpha =
+      _mm256_mul_ps(_mm256_blendv_ps(stretchCompliance, compressionCompliance, below), inverseH2);
+  const __m256 stiffness = _mm256_add_ps(wa, wb);
+  __m256 active = _mm256_and_ps(_mm256_cmp_ps(length, tiny, _CMP_GE_OQ),
+                                _mm256_cmp_ps(stiffness, tiny, _CMP_GE_OQ));
+  if (unilateral) active = _mm256_and_ps(active, _mm256_cmp_ps(constraint, zero, _CMP_GT_OQ));
+  const __m256 numerator = _mm256_sub_ps(zero, _mm256_fmadd_ps(alpha, lambda, constraint));
+  return _mm256_and_ps(_mm256_div_ps(numerator, _mm256_mul_ps(_mm256_add_ps(stiffness, alpha),
+                                                              _mm256_max_ps(length, tiny))),
+                       active);
+}
+
 [[gnu::target("avx2,fma")]] Index projectAvx2(const DistanceBatch& b, Index begin, Index end) {
   const float* base = reinterpret_cast<const float*>(b.positions);
-  const __m256 tiny = _mm256_set1_ps(1e-12f), zero = _mm256_setzero_ps();
+  const __m256 zero = _mm256_setzero_ps();
   const __m256 inverseH2 = _mm256_set1_ps(b.inverseH2);
   // The pairs (a0 b0 a1 b1 a2 b2 a3 b3) become (a0 a1 a2 a3 b0 b1 b2 b3).
   const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
@@ -53,25 +78,10 @@ namespace {
     const __m256 dx = _mm256_sub_ps(xa, xb), dy = _mm256_sub_ps(ya, yb), dz = _mm256_sub_ps(za, zb);
     const __m256 length =
         _mm256_sqrt_ps(_mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz))));
-    const __m256 constraint = _mm256_sub_ps(length, _mm256_loadu_ps(b.rest + k));
-    const __m256 below = _mm256_cmp_ps(constraint, zero, _CMP_LT_OQ);
-    const __m256 alpha =
-        _mm256_mul_ps(_mm256_blendv_ps(_mm256_loadu_ps(b.compliance + k),
-                                       _mm256_loadu_ps(b.compressionCompliance + k), below),
-                      inverseH2);
-    const __m256 stiffness = _mm256_add_ps(wa, wb);
-    __m256 active = _mm256_and_ps(_mm256_cmp_ps(length, tiny, _CMP_GE_OQ),
-                                  _mm256_cmp_ps(stiffness, tiny, _CMP_GE_OQ));
-    if (b.unilateral) active = _mm256_and_ps(active, _mm256_cmp_ps(constraint, zero, _CMP_GT_OQ));
     const __m256 lambda = _mm256_loadu_ps(b.lambda + k);
-    // Δλ = (−C − α̃λ) / (w_a + w_b + α̃) and Δλ n = Δλ (x_a − x_b)/|x_a − x_b| share one
-    // division: scale = (−C − α̃λ) / ((w_a + w_b + α̃) |x_a − x_b|), Δλ = scale |x_a − x_b|.
-    const __m256 numerator =
-        _mm256_sub_ps(_mm256_setzero_ps(), _mm256_fmadd_ps(alpha, lambda, constraint));
-    const __m256 scale = _mm256_and_ps(
-        _mm256_div_ps(numerator,
-                      _mm256_mul_ps(_mm256_add_ps(stiffness, alpha), _mm256_max_ps(length, tiny))),
-        active);
+    const __m256 scale = multiplierScale(
+        length, _mm256_loadu_ps(b.rest + k), _mm256_loadu_ps(b.compliance + k),
+        _mm256_loadu_ps(b.compressionCompliance + k), lambda, wa, wb, inverseH2, b.unilateral);
     _mm256_storeu_ps(b.lambda + k, _mm256_fmadd_ps(scale, length, lambda));
     const __m256 sa = _mm256_mul_ps(wa, scale), sb = _mm256_mul_ps(wb, scale);
     _mm256_store_ps(ax, _mm256_fmadd_ps(sa, dx, xa));
@@ -98,7 +108,7 @@ namespace {
 [[gnu::target("avx2,fma")]] Index projectJacobiAvx2(const DistanceJacobiBatch& b, Index begin,
                                                     Index end) {
   const float* base = reinterpret_cast<const float*>(b.positions);
-  const __m256 tiny = _mm256_set1_ps(1e-12f), zero = _mm256_setzero_ps();
+  const __m256 zero = _mm256_setzero_ps();
   const __m256 inverseH2 = _mm256_set1_ps(b.inverseH2);
   const __m256 relaxation = _mm256_set1_ps(b.relaxation), step = _mm256_set1_ps(b.step);
   const __m256 carry = _mm256_set1_ps(b.carry);
@@ -125,23 +135,12 @@ namespace {
 
     const __m256 length =
         _mm256_sqrt_ps(_mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz))));
-    const __m256 constraint = _mm256_sub_ps(length, _mm256_loadu_ps(b.rest + k));
     const __m256 stretchCompliance = _mm256_loadu_ps(b.compliance + k);
     const __m256 compressionCompliance = _mm256_loadu_ps(b.compressionCompliance + k);
-    const __m256 below = _mm256_cmp_ps(constraint, zero, _CMP_LT_OQ);
-    const __m256 alpha =
-        _mm256_mul_ps(_mm256_blendv_ps(stretchCompliance, compressionCompliance, below), inverseH2);
-    const __m256 stiffness = _mm256_add_ps(wa, wb);
-    __m256 active = _mm256_and_ps(_mm256_cmp_ps(length, tiny, _CMP_GE_OQ),
-                                  _mm256_cmp_ps(stiffness, tiny, _CMP_GE_OQ));
-    if (b.unilateral) active = _mm256_and_ps(active, _mm256_cmp_ps(constraint, zero, _CMP_GT_OQ));
     const __m256 lambda = _mm256_loadu_ps(b.lambda + k);
-    const __m256 numerator =
-        _mm256_sub_ps(_mm256_setzero_ps(), _mm256_fmadd_ps(alpha, lambda, constraint));
-    const __m256 scale = _mm256_and_ps(
-        _mm256_div_ps(numerator,
-                      _mm256_mul_ps(_mm256_add_ps(stiffness, alpha), _mm256_max_ps(length, tiny))),
-        active);
+    const __m256 scale =
+        multiplierScale(length, _mm256_loadu_ps(b.rest + k), stretchCompliance,
+                        compressionCompliance, lambda, wa, wb, inverseH2, b.unilateral);
     // Hard constraints (both compliances 0) are accelerated on the accelerated sweeps.
     __m256 hard = _mm256_and_ps(_mm256_cmp_ps(stretchCompliance, zero, _CMP_EQ_OQ),
                                 _mm256_cmp_ps(compressionCompliance, zero, _CMP_EQ_OQ));
