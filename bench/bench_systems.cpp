@@ -5,6 +5,9 @@
 //    bend / twist on a helix of about the same particle count.
 //  - BM_Residual: the strain left after k sweeps of the stretch family from the same predicted
 //    state, per backend (convergence per sweep; with the time, convergence per millisecond).
+//  - BM_Cascade: one multigrid coarse-to-fine cascade (every coarse level's sweeps, tethers and
+//    prolongation) of the hanging cloth, from the same predicted state every repetition, in coarse
+//    projections per second; compare its time with one stretch sweep of BM_Sweep.
 //  - BM_ClothStep: a whole step of the hanging cloth.
 //  - BM_Contacts: contact detection and one projection of the contact pool for an n² cloth
 //    across the ground plane or a sphere (the collisions stage; nucleon has no mesh broad phase
@@ -24,6 +27,7 @@
 #include "systems/constraint_sweeps.h"
 #include "systems/integrate.h"
 #include "systems/measures.h"
+#include "systems/multigrid_cascade.h"
 #include "systems/particle_contacts.h"
 #include "systems/tether_sweep.h"
 
@@ -228,6 +232,36 @@ BENCHMARK(BM_Residual)
                    {1, 2, 4, 8, 16, 32, 64},
                    {2}})
     ->ArgNames({"n", "solver", "sweeps", "threads"})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime();
+
+void BM_Cascade(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const int threads = static_cast<int>(state.range(1));
+  World world = hangingCloth(n, false);
+  prepare(world, SolverKind::Multigrid, threads);
+  WorldState& s = world.impl().state;
+  const SolverSettings settings;  // the default sweeps per level
+  const std::vector<Vec3> predicted = s.particles.p;
+  tbb::task_arena arena(threads);
+  std::size_t projections = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    s.particles.p = predicted;
+    state.ResumeTiming();
+    arena.execute([&] {
+      projections = runMultigridCascade(s.hierarchies, s.objects, s.particles, s.cascadeStart,
+                                        settings.sweepsPerLevel);
+    });
+  }
+  state.counters["projections/s"] = benchmark::Counter(
+      static_cast<double>(projections), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["projections"] = static_cast<double>(projections);
+  state.counters["fine_edges"] = static_cast<double>(s.constraints.stretch.size());
+}
+BENCHMARK(BM_Cascade)
+    ->ArgsProduct({{128, 256}, {1, 2}})
+    ->ArgNames({"n", "threads"})
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime();
 

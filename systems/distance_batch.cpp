@@ -50,6 +50,7 @@ namespace {
   const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
   alignas(32) float ax[8], ay[8], az[8], bx[8], by[8], bz[8];
   alignas(32) int ia[8], ib[8];
+  const bool hard = b.lambda == nullptr;  // no compliances, no multipliers
   Index k = begin;
   for (; k + 8 <= end; k += 8) {
     const auto* pairs = reinterpret_cast<const __m256i*>(b.particles + k);
@@ -78,11 +79,12 @@ namespace {
     const __m256 dx = _mm256_sub_ps(xa, xb), dy = _mm256_sub_ps(ya, yb), dz = _mm256_sub_ps(za, zb);
     const __m256 length =
         _mm256_sqrt_ps(_mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz))));
-    const __m256 lambda = _mm256_loadu_ps(b.lambda + k);
-    const __m256 scale = multiplierScale(
-        length, _mm256_loadu_ps(b.rest + k), _mm256_loadu_ps(b.compliance + k),
-        _mm256_loadu_ps(b.compressionCompliance + k), lambda, wa, wb, inverseH2, b.unilateral);
-    _mm256_storeu_ps(b.lambda + k, _mm256_fmadd_ps(scale, length, lambda));
+    const __m256 lambda = hard ? zero : _mm256_loadu_ps(b.lambda + k);
+    const __m256 scale = multiplierScale(length, _mm256_loadu_ps(b.rest + k),
+                                         hard ? zero : _mm256_loadu_ps(b.compliance + k),
+                                         hard ? zero : _mm256_loadu_ps(b.compressionCompliance + k),
+                                         lambda, wa, wb, inverseH2, b.unilateral);
+    if (!hard) _mm256_storeu_ps(b.lambda + k, _mm256_fmadd_ps(scale, length, lambda));
     const __m256 sa = _mm256_mul_ps(wa, scale), sb = _mm256_mul_ps(wb, scale);
     _mm256_store_ps(ax, _mm256_fmadd_ps(sa, dx, xa));
     _mm256_store_ps(ay, _mm256_fmadd_ps(sa, dy, ya));

@@ -18,6 +18,8 @@ constexpr Index kDistanceBatchSize = 8;
 struct DistanceBatch {
   const std::array<Index, 2>* particles = nullptr;
   const Real* rest = nullptr;
+  // Null compliances and multipliers: hard constraints without multipliers, the plain PBD step
+  // Δx_a = −w_a C n / (w_a + w_b) (the multigrid cascade's coarse limits).
   const Real* compliance = nullptr;
   const Real* compressionCompliance = nullptr;
   Real* lambda = nullptr;

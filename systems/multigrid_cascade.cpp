@@ -5,6 +5,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "systems/distance_batch.h"
 #include "systems/tether_projection.h"
 
 namespace nucleon {
@@ -39,19 +40,30 @@ void projectLimit(ParticlePool& particles, const std::array<Index, 2>& edge, Rea
 // sweep in color order gives the same result bit for bit.
 constexpr std::size_t kSerialEdges = 8192;
 
+// Edges [begin, end) of one color: eight at a time where the AVX2 batch runs (the same PBD step,
+// without multipliers), the rest one by one.
+void sweepEdges(const HierarchyLevel& level, ParticlePool& particles, Index begin, Index end) {
+  DistanceBatch batch;
+  batch.particles = level.edges.data();
+  batch.rest = level.restLength.data();
+  batch.positions = particles.p.data();
+  batch.inverseMass = particles.w.data();
+  batch.unilateral = true;
+  for (Index e = projectDistanceBatches(batch, begin, end); e != end; ++e)
+    projectLimit(particles, level.edges[e], level.restLength[e]);
+}
+
 void sweepLevel(const HierarchyLevel& level, ParticlePool& particles) {
   const bool serial = level.edges.size() < kSerialEdges;
   for (std::size_t c = 0; c < level.colorCount(); ++c) {
     const Index begin = level.colorOffset[c], end = level.colorOffset[c + 1];
     if (serial) {
-      for (Index e = begin; e != end; ++e)
-        projectLimit(particles, level.edges[e], level.restLength[e]);
+      sweepEdges(level, particles, begin, end);
       continue;
     }
     tbb::parallel_for(tbb::blocked_range<Index>(begin, end, kEdgeGrain),
                       [&](const tbb::blocked_range<Index>& r) {
-                        for (Index e = r.begin(); e != r.end(); ++e)
-                          projectLimit(particles, level.edges[e], level.restLength[e]);
+                        sweepEdges(level, particles, r.begin(), r.end());
                       });
   }
 }

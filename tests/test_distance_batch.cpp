@@ -121,6 +121,49 @@ TEST(DistanceBatch, StretchWithLoadedMassesMatchesScalarKernel) {
   expectBatchMatchesScalar(false, true);
 }
 
+// Without compliances and multipliers (the multigrid cascade's coarse limits) the batch takes the
+// plain PBD step of an upper limit, written out here: a stretched edge (C = |d| − L > 0) moves
+// its ends by ∓ w C d / ((w_a + w_b) |d|), and nothing else moves.
+TEST(DistanceBatch, HardLimitsWithoutMultipliersTakeThePbdStep) {
+#ifdef NUCLEON_DOUBLE
+  GTEST_SKIP() << "the batched distance path is float-only";
+#else
+  if (!distanceBatchesAvailable()) GTEST_SKIP() << "no AVX2/FMA on this CPU";
+  Fixture f;
+  const std::vector<Vec3> before = f.particles.p;
+  DistanceBatch batch;
+  batch.particles = f.pool.particles.data();
+  batch.rest = f.pool.rest.data();
+  batch.positions = f.particles.p.data();
+  batch.inverseMass = f.particles.w.data();
+  batch.unilateral = true;
+  const std::vector<Real> lambdaBefore = f.pool.lambda;
+  EXPECT_EQ(projectDistanceBatches(batch, 0, 32), 32u);
+  int stretched = 0, slack = 0;
+  for (Index c = 0; c < 32; ++c) {
+    const Index a = 2 * c, b = 2 * c + 1;
+    const Vec3 d = before[a] - before[b];
+    const Real length = d.norm(), excess = length - f.pool.rest[c];
+    const Real wSum = f.particles.w[a] + f.particles.w[b];
+    Vec3 expectA = before[a], expectB = before[b];
+    if (excess > 0 && length > 1e-6f) {
+      const Vec3 step = excess / (wSum * length) * d;
+      expectA -= f.particles.w[a] * step;
+      expectB += f.particles.w[b] * step;
+      ++stretched;
+    } else {
+      ++slack;
+    }
+    // Float rounding of O(1) coordinates with FMA contraction: a few ulps.
+    EXPECT_LT((f.particles.p[a] - expectA).norm(), 1e-5f) << c;
+    EXPECT_LT((f.particles.p[b] - expectB).norm(), 1e-5f) << c;
+  }
+  EXPECT_GT(stretched, 5);  // both branches are exercised
+  EXPECT_GT(slack, 5);
+  EXPECT_EQ(f.pool.lambda, lambdaBefore);  // no multiplier is read or written
+#endif
+}
+
 // Which constraints share a batch must not depend on how the threads split a color: batches
 // start a multiple of eight from the color's start, and only a color's last piece is ragged.
 TEST(DistanceBatch, PiecesOfAColorAreAlignedForAnyThreadCount) {
