@@ -264,6 +264,9 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
       {"energy", energy},
       {"state_hash", hex16(world.stateHash())},
       {"per_frame", perFrame}};
+  // Multigrid's fine-sweep backend (scene key solver.smoother).
+  if (scene.solver.kind == SolverKind::Multigrid)
+    stats["smoother"] = toString(scene.solver.smoother);
   {
     // Where the step's time went (the engine's own profile, per step), and what the collision
     // stages between primitives did over the run.

@@ -583,7 +583,7 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
   if (top.has("solver")) {
     const Reader s = top.child("solver");
     s.allowOnly({"type", "iterations", "substeps", "relaxation", "chebyshev_rho",
-                 "sweeps_per_level", "cascade_every", "schedule"});
+                 "sweeps_per_level", "cascade_every", "smoother", "schedule"});
     const std::string type = s.string("type", toString(scene.solver.kind));
     if (!parseSolverKind(type, scene.solver.kind))
       s.fail(s.at("type"), "unknown solver '" + type + "'");
@@ -595,6 +595,13 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
         static_cast<Real>(s.number("chebyshev_rho", scene.solver.chebyshevRho, 0, 0.9999));
     if (s.has("sweeps_per_level")) scene.solver.sweepsPerLevel = s.levelSweeps("sweeps_per_level");
     scene.solver.cascadeEvery = s.integer("cascade_every", scene.solver.cascadeEvery, 0, 100000);
+    if (s.has("smoother")) {
+      const std::string smoother = s.string("smoother", "");
+      if (!parseSolverKind(smoother, scene.solver.smoother) ||
+          scene.solver.smoother == SolverKind::Multigrid)
+        s.fail(s.at("smoother"),
+               "unknown smoother '" + smoother + "' (gauss-seidel, jacobi or colored-gs)");
+    }
     if (s.has("schedule")) {
       if (s.has("iterations"))
         s.fail("give either 'iterations' (every family) or 'schedule' (per family), not both");

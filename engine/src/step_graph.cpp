@@ -179,7 +179,7 @@ void StepGraph::runStage(int stage) {
         const bool repeats = s.solver.kind == SolverKind::Multigrid && s.solver.cascadeEvery > 0;
         contactSeconds =
             solveConstraints(s.constraints, s.particles, s.plan, s.contacts, s.colliders,
-                             s.primitiveContacts, s.solver.kind, h_, s.solver.relaxation,
+                             s.primitiveContacts, fineSweepKind(s.solver), h_, s.solver.relaxation,
                              s.solver.chebyshevRho, repeats ? +repeatCascade : nullptr, &repeat);
         cascadeProjections += repeat.projections;
         if (s.colliders.size() > 0)

@@ -458,6 +458,9 @@ void World::setSolver(const SolverSettings& settings) {
     require(sweeps >= 0 && sweeps <= 1000, "sweeps per level must be in [0, 1000]");
   require(settings.cascadeEvery >= 0 && settings.cascadeEvery <= 100000,
           "cascade_every must be in [0, 100000]");
+  require(settings.smoother == SolverKind::GaussSeidel || settings.smoother == SolverKind::Jacobi ||
+              settings.smoother == SolverKind::ColoredGaussSeidel,
+          "the multigrid smoother must be gauss-seidel, jacobi or colored-gs");
   impl_->state.solver = settings;
   impl_->state.topologyDirty = true;  // the sweep plan follows the schedule
 }
@@ -482,7 +485,7 @@ void World::step(double dt) {
   Impl& impl = *impl_;
   WorldState& s = impl.state;
   if (s.topologyDirty) {  // derived tables, rebuilt outside the step so a step never allocates
-    buildDerivedTables(s.constraints, s.particles, s.solver.kind);
+    buildDerivedTables(s.constraints, s.particles, fineSweepKind(s.solver));
     buildCollisionPrimitives(s.primitives, s.objects, s.excludedObjectPairs);
     if (s.solver.kind == SolverKind::Multigrid) {
       buildLevelHierarchies(s.hierarchies, s.objects, s.particles);

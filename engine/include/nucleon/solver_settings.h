@@ -35,9 +35,17 @@ struct SolverSettings {
   // Multigrid: the cascade also runs again after every `cascadeEvery` fine sweep rounds (0: only
   // before the first), each time from the positions the fine sweeps left.
   int cascadeEvery = 0;
+  // Multigrid: the backend of its fine sweeps, colored-gs (default), jacobi or gauss-seidel (not
+  // multigrid). The cascade is the same for all three (ARCHITECTURE.md §3).
+  SolverKind smoother = SolverKind::ColoredGaussSeidel;
   // Per-family sweep counts and order; empty = every family `iterations` times, in the order
   // stretch, tether, shear, bend, twist, volume.
   Schedule schedule;
 };
+
+// The backend of the constraint sweeps: multigrid's smoother under multigrid, else the backend.
+inline SolverKind fineSweepKind(const SolverSettings& settings) {
+  return settings.kind == SolverKind::Multigrid ? settings.smoother : settings.kind;
+}
 
 }  // namespace nucleon
