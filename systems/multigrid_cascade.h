@@ -25,8 +25,10 @@ namespace nucleon {
 // the result does not depend on the thread count. After the sweeps of every level, and after the
 // last prolongation, `afterLevel(context)` is called: the solve projects its contacts there, as it
 // does after every fine sweep round, so that a particle the cascade pulls toward a collider is
-// held by its contact instead of being carried into it. Returns the coarse-edge projections
-// and tether projections performed.
+// held by its contact instead of being carried into it. `contactOffsets` is the CSR offset table
+// of the particles' primitive contacts this substep (PrimitiveContactPool::incidenceOffset; empty
+// for none): prolongation leaves a particle with contacts where its contacts put it. Returns the
+// coarse-edge projections and tether projections performed.
 using CascadeHook = void (*)(void* context);
 
 // The sweeps of coarse level l ≥ 1: sweepsPerLevel[l − 1], or its last value beyond the list; 0
@@ -35,7 +37,8 @@ int sweepsOfLevel(std::span<const int> sweepsPerLevel, std::size_t level);
 std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
                                 std::span<const ObjectRecord> objects, ParticlePool& particles,
                                 std::vector<Vec3>& start, std::span<const int> sweepsPerLevel,
-                                CascadeHook afterLevel = nullptr, void* context = nullptr);
+                                CascadeHook afterLevel = nullptr, void* context = nullptr,
+                                std::span<const Index> contactOffsets = {});
 
 // The coarse-edge projections one cascade performs (for throughput and work figures).
 std::size_t cascadeProjections(const LevelHierarchies& hierarchies,

@@ -3,6 +3,7 @@
 // friction on a slope, restitution, and a cloth folding onto itself without intersecting.
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include <gtest/gtest.h>
 
@@ -248,9 +249,15 @@ TEST(CollisionResponse, FoldingClothDoesNotIntersectItself) {
 // behind the cloth: at every frame end, the segment from the pellet straight back to where it
 // was fired from (z = −1) crosses the cloth an even number of times (0 when it is in front, or
 // caught in a pocket whose opening faces back). The crossing test is Möller–Trumbore in
-// double, independent of the collision code; a tunnelled pellet makes it odd.
-TEST(CollisionScenes, BulletClothPelletNeverTunnels) {
-  const Scene scene = loadScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/bullet_cloth.json");
+// double, independent of the collision code; a tunnelled pellet makes it odd. Run with the
+// scene's solver and under multigrid with either smoother, whose cascade moves the cloth's
+// particles between contact projections.
+static void expectPelletNeverTunnels(std::optional<SolverKind> kind, SolverKind smoother) {
+  Scene scene = loadScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/bullet_cloth.json");
+  if (kind) {
+    scene.solver.kind = *kind;
+    scene.solver.smoother = smoother;
+  }
   World world = buildWorld(scene);
   const ObjectId cloth = world.objectAt(0), pelletId = world.objectAt(1);
   const auto triangles = world.surfaceTriangles(cloth);
@@ -277,4 +284,13 @@ TEST(CollisionScenes, BulletClothPelletNeverTunnels) {
   // It was stopped: no longer flying at 200 m/s (it falls under gravity from where it stopped).
   EXPECT_LT(std::abs(world.velocities()[world.particleCount() - 1].z()), 10);
   EXPECT_EQ(world.recoveries().total(), 0u);
+}
+
+TEST(CollisionScenes, BulletClothPelletNeverTunnels) {
+  expectPelletNeverTunnels(std::nullopt, SolverKind::ColoredGaussSeidel);
+}
+
+TEST(CollisionScenes, BulletClothPelletNeverTunnelsUnderMultigrid) {
+  expectPelletNeverTunnels(SolverKind::Multigrid, SolverKind::ColoredGaussSeidel);
+  expectPelletNeverTunnels(SolverKind::Multigrid, SolverKind::Jacobi);
 }

@@ -14,6 +14,13 @@
 namespace nucleon {
 namespace {
 
+// The particles' primitive contacts of this substep, as the cascade reads them (empty when there
+// are none: the offsets may then be left from an earlier substep).
+std::span<const Index> contactOffsetsOf(const PrimitiveContactPool& contacts) {
+  return contacts.size() > 0 ? std::span<const Index>(contacts.incidenceOffset)
+                             : std::span<const Index>();
+}
+
 // The multigrid cascade's hook: contacts are projected between its levels as between sweep
 // rounds, so a particle the cascade pulls toward a collider is held by its contact.
 void projectAllContacts(void* state) {
@@ -159,9 +166,9 @@ void StepGraph::runStage(int stage) {
       CrossingReport crossing;
       profile.solve += timed([&] {
         if (s.solver.kind == SolverKind::Multigrid) {
-          cascadeProjections =
-              runMultigridCascade(s.hierarchies, s.objects, s.particles, s.cascadeStart,
-                                  s.solver.sweepsPerLevel, projectAllContacts, &s);
+          cascadeProjections = runMultigridCascade(
+              s.hierarchies, s.objects, s.particles, s.cascadeStart, s.solver.sweepsPerLevel,
+              projectAllContacts, &s, contactOffsetsOf(s.primitiveContacts));
         }
         // Multigrid repeats its cascade between fine rounds when the schedule asks for it.
         struct Repeat {
@@ -172,9 +179,9 @@ void StepGraph::runStage(int stage) {
           Repeat& r = *static_cast<Repeat*>(context);
           WorldState& w = r.state;
           if (w.solver.cascadeEvery <= 0 || roundsDone % w.solver.cascadeEvery != 0) return;
-          r.projections +=
-              runMultigridCascade(w.hierarchies, w.objects, w.particles, w.cascadeStart,
-                                  w.solver.sweepsPerLevel, projectAllContacts, &w);
+          r.projections += runMultigridCascade(
+              w.hierarchies, w.objects, w.particles, w.cascadeStart, w.solver.sweepsPerLevel,
+              projectAllContacts, &w, contactOffsetsOf(w.primitiveContacts));
         };
         const bool repeats = s.solver.kind == SolverKind::Multigrid && s.solver.cascadeEvery > 0;
         contactSeconds =
