@@ -4,6 +4,7 @@
 //
 //   nucleon_bench_cloth [--n 64,128,256] [--iterations 4,10,20] [--scenes hanging,sphere,mesh]
 //                       [--bending off|on|both] [--solvers colored-gs,jacobi,multigrid]
+//                       (also multigrid-jacobi: multigrid with Jacobi fine sweeps)
 //                       [--tethers on|off|both] [--threads 2 | 1,2] [--repeats 3] [--steps 120]
 //                       [--warmup 10] [--bullet-collision sdf|cluster|both]
 //                       [--mesh-offset 0.15] [--csv FILE] [--no-bullet]
@@ -38,13 +39,23 @@ namespace {
 using cli::parseIntList;
 using cli::splitList;
 
+// A backend as the comparison names it: multigrid-jacobi is multigrid with the Jacobi smoother.
+struct Solver {
+  SolverKind kind = SolverKind::ColoredGaussSeidel;
+  SolverKind smoother = SolverKind::ColoredGaussSeidel;
+  std::string name() const {
+    return kind == SolverKind::Multigrid && smoother == SolverKind::Jacobi ? "multigrid-jacobi"
+                                                                           : toString(kind);
+  }
+};
+
 struct Options {
   std::vector<int> resolutions = {64, 128, 256};
   std::vector<int> iterations = {4, 10, 20};
   std::vector<ClothScene> scenes = {ClothScene::Hanging, ClothScene::Sphere};
   std::vector<bool> bending = {false};
-  std::vector<SolverKind> solvers = {SolverKind::ColoredGaussSeidel, SolverKind::Jacobi,
-                                     SolverKind::Multigrid};
+  std::vector<Solver> solvers = {
+      {SolverKind::ColoredGaussSeidel}, {SolverKind::Jacobi}, {SolverKind::Multigrid}};
   std::vector<bool> tethers = {true, false};
   std::vector<int> threads = {2};
   std::vector<BulletCollision> bulletCollisions = {BulletCollision::Sdf};
@@ -103,10 +114,12 @@ Options parse(int argc, char** argv) {
     } else if (a == "--solvers") {
       o.solvers.clear();
       for (const std::string& s : splitList(value())) {
-        SolverKind kind;
-        if (!parseSolverKind(s, kind))
+        Solver solver;
+        if (s == "multigrid-jacobi")
+          solver = {SolverKind::Multigrid, SolverKind::Jacobi};
+        else if (!parseSolverKind(s, solver.kind))
           throw std::invalid_argument("--solvers: unknown solver '" + s + "'");
-        o.solvers.push_back(kind);
+        o.solvers.push_back(solver);
       }
     } else if (a == "--threads") {
       o.threads = parseIntList(a, value(), 0, 4096);
@@ -218,7 +231,7 @@ int run(const Options& o) {
     if (!csv) throw std::runtime_error(o.csv + ": cannot write");
     writeCsvHeader(csv);
   }
-  std::printf("%-8s %4s %4s %4s | %-14s %-7s %3s %9s %9s %9s %9s | %6s\n", "scene", "N", "K",
+  std::printf("%-8s %4s %4s %4s | %-16s %-7s %3s %9s %9s %9s %9s | %6s\n", "scene", "N", "K",
               "bend", "engine", "tethers", "thr", "ms/step", "maxstrain", "meanstr", "p99strain",
               "ratio");
   for (ClothScene scene : o.scenes)
@@ -236,12 +249,12 @@ int run(const Options& o) {
           const ClothMesh mesh = makeClothMesh(c);
           // Every nucleon configuration: solver × tethers × threads.
           struct Configuration {
-            SolverKind solver;
+            Solver solver;
             bool tethers;
             int threads;
           };
           std::vector<Configuration> configurations;
-          for (SolverKind solver : o.solvers)
+          for (const Solver& solver : o.solvers)
             for (bool tethers : o.tethers)
               for (int threads : o.threads) configurations.push_back({solver, tethers, threads});
           // Bullet once, or once per collision mode in the mesh scene.
@@ -264,8 +277,9 @@ int run(const Options& o) {
             for (std::size_t s = 0; s < configurations.size(); ++s) {
               ClothCase variant = c;
               variant.tethers = configurations[s].tethers;
-              nucleonRuns[s].push_back(runNucleonCloth(variant, mesh, configurations[s].solver,
-                                                       configurations[s].threads));
+              nucleonRuns[s].push_back(runNucleonCloth(variant, mesh, configurations[s].solver.kind,
+                                                       configurations[s].threads,
+                                                       configurations[s].solver.smoother));
             }
           }
           std::vector<Summary> rows;
@@ -275,13 +289,13 @@ int run(const Options& o) {
               rows.back().bulletCollision = toString(bulletCases[b].bulletCollision);
           }
           for (std::size_t s = 0; s < configurations.size(); ++s)
-            rows.push_back(summarise("nucleon", toString(configurations[s].solver),
+            rows.push_back(summarise("nucleon", configurations[s].solver.name(),
                                      configurations[s].tethers ? "on" : "off",
                                      configurations[s].threads, nucleonRuns[s]));
           for (const Summary& row : rows) {
             const std::string label =
                 row.engine == "bullet" ? ("bullet " + row.bulletCollision) : row.solver;
-            std::printf("%-8s %4d %4d %4s | %-14s %-7s %3d %9.3f %9.4f %9.5f %9.5f |",
+            std::printf("%-8s %4d %4d %4s | %-16s %-7s %3d %9.3f %9.4f %9.5f %9.5f |",
                         toString(scene), n, k, bending ? "yes" : "no", label.c_str(),
                         row.tethers.c_str(), row.threads, row.medianMs, row.result.finalStrain.max,
                         row.result.finalStrain.mean, row.result.finalStrainP99);

@@ -141,8 +141,9 @@ void observeStep(const ClothCase& c, const ClothMesh& mesh, const std::vector<Ve
 void finishRun(const ClothCase& c, const ClothMesh& mesh, const std::vector<Vec3>& positions,
                RunResult& result);
 
-RunResult runNucleonCloth(const ClothCase& c, const ClothMesh& mesh, SolverKind solver,
-                          int threads);
+// `smoother`: the fine sweeps' backend when `solver` is multigrid.
+RunResult runNucleonCloth(const ClothCase& c, const ClothMesh& mesh, SolverKind solver, int threads,
+                          SolverKind smoother = SolverKind::ColoredGaussSeidel);
 
 // Bullet's btSoftBody on the same case; only when the program was built with Bullet.
 bool bulletAvailable();

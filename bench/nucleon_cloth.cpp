@@ -10,12 +10,13 @@
 
 namespace nucleon::bench {
 
-RunResult runNucleonCloth(const ClothCase& c, const ClothMesh& mesh, SolverKind solver,
-                          int threads) {
+RunResult runNucleonCloth(const ClothCase& c, const ClothMesh& mesh, SolverKind solver, int threads,
+                          SolverKind smoother) {
   using Clock = std::chrono::steady_clock;
   World world;
   SolverSettings settings;
   settings.kind = solver;
+  settings.smoother = smoother;
   settings.iterations = c.iterations;
   settings.substeps = c.substeps;
   world.setSolver(settings);
