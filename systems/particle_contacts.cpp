@@ -82,7 +82,11 @@ inline void projectContact(ContactPool& contacts, const ColliderPool& colliders,
 }  // namespace
 
 void detectContacts(ContactPool& contacts, const ColliderPool& colliders,
-                    const ParticlePool& particles, Real h) {
+                    const ParticlePool& particles, Real h, std::span<const Vec3> reached) {
+  auto touches = [&](std::size_t i, std::size_t k, const Vec3& predicted) {
+    return inReach(colliders, k, particles.x[i], predicted) ||
+           (!reached.empty() && inReach(colliders, k, particles.x[i], reached[i]));
+  };
   const std::size_t n = particles.size();
   contacts.runStart.resize(n + 1);
   if (colliders.size() == 0) {
@@ -98,7 +102,7 @@ void detectContacts(ContactPool& contacts, const ColliderPool& colliders,
                         if (particles.w[i] != 0) {
                           const Vec3 predicted = particles.x[i] + h * particles.v[i];
                           for (std::size_t k = 0; k < colliders.size(); ++k)
-                            count += inReach(colliders, k, particles.x[i], predicted);
+                            count += touches(i, k, predicted);
                         }
                         contacts.runStart[i] = count;
                       }
@@ -126,7 +130,7 @@ void detectContacts(ContactPool& contacts, const ColliderPool& colliders,
                         if (c == contacts.runStart[i + 1]) continue;
                         const Vec3 predicted = particles.x[i] + h * particles.v[i];
                         for (std::size_t k = 0; k < colliders.size(); ++k) {
-                          if (!inReach(colliders, k, particles.x[i], predicted)) continue;
+                          if (!touches(i, k, predicted)) continue;
                           const SurfacePoint s = surfaceAt(colliders, k, predicted);
                           contacts.particle[c] = static_cast<Index>(i);
                           contacts.collider[c] = static_cast<Index>(k);
@@ -160,6 +164,22 @@ void projectContacts(ContactPool& contacts, const ColliderPool& colliders, Parti
           for (std::size_t d = c; d <= last; ++d) projectContact(contacts, colliders, particles, d);
         }
       });
+}
+
+bool contactsMissing(const ContactPool& contacts, const ColliderPool& colliders,
+                     const ParticlePool& particles) {
+  if (colliders.size() == 0) return false;
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, particles.size(), kParticleGrain), false,
+      [&](const tbb::blocked_range<std::size_t>& r, bool missing) {
+        for (std::size_t i = r.begin(); i != r.end() && !missing; ++i) {
+          if (particles.w[i] == 0 || contacts.runStart[i] != contacts.runStart[i + 1]) continue;
+          for (std::size_t k = 0; k < colliders.size() && !missing; ++k)
+            missing = inReach(colliders, k, particles.x[i], particles.p[i]);
+        }
+        return missing;
+      },
+      [](bool a, bool b) { return a || b; });
 }
 
 std::size_t resolveMissedContacts(const ContactPool& contacts, const ColliderPool& colliders,

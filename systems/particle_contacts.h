@@ -18,6 +18,7 @@
 #pragma once
 
 #include <cstddef>
+#include <span>
 
 #include "components/collider_pool.h"
 #include "components/contact_pool.h"
@@ -33,9 +34,17 @@ namespace nucleon {
 constexpr Real kContactReach = Real(0.01);
 
 // Refills `contacts` for the substep of length h (particles' predicted position x + h v).
-// Deterministic: contacts come out in particle order whatever the thread count.
+// Deterministic: contacts come out in particle order whatever the thread count. With `reached`
+// (where a solve has since moved the particles), a particle also gets a contact with a collider
+// that its motion x → reached comes within reach of: the re-detection after the multigrid
+// cascade, whose coarse corrections can carry a particle much farther than the sweeps do.
 void detectContacts(ContactPool& contacts, const ColliderPool& colliders,
-                    const ParticlePool& particles, Real h);
+                    const ParticlePool& particles, Real h, std::span<const Vec3> reached = {});
+
+// Whether a free particle that has no contact in the pool has come within reach of a collider at
+// its current position p (then the pool needs a re-detection with reached = p).
+bool contactsMissing(const ContactPool& contacts, const ColliderPool& colliders,
+                     const ParticlePool& particles);
 
 // Projects every contact of the pool onto particles.p. Gauss–Seidel goes through the pool in
 // order; the parallel backends project the runs of different particles in parallel (they share

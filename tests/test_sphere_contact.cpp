@@ -8,6 +8,7 @@
 #include "nucleon/shapes.h"
 #include "nucleon/world.h"
 #include "sim_test_context.h"
+#include "systems/particle_contacts.h"
 
 namespace nucleon {
 namespace {
@@ -69,6 +70,36 @@ TEST(SphereContact, ClothDropsOntoSphereWithoutEnteringIt) {
     const Vec3 top = world.positions()[32 * 64 + 32];
     EXPECT_NEAR(top.y(), sphere.radius + sphere.thickness, 0.02) << toString(kind);
   }
+}
+
+// The re-detection after the multigrid cascade: a particle 1 m above the ground at rest has no
+// contact over its predicted motion; once something (the cascade) has carried it to 5 mm above
+// the ground, contactsMissing says so and detectContacts with the reached positions gives it its
+// contact, which a projection then holds. A particle that stayed high gets none.
+TEST(GroundContact, RedetectionCoversWhereTheSolveCarriedAParticle) {
+  ColliderPool colliders;
+  colliders.append(ColliderShape::Plane, Vec3::Zero(), Vec3(0, 1, 0), 0, Real(0.01), 0, 0);
+  ParticlePool particles;
+  particles.append(2);
+  for (Index i = 0; i < 2; ++i) {
+    particles.x[i] = particles.p[i] = Vec3(Real(i), 1, 0);
+    particles.v[i] = Vec3::Zero();
+    particles.w[i] = 1;
+  }
+  ContactPool contacts;
+  const Real h = Real(1) / 60;
+  detectContacts(contacts, colliders, particles, h);
+  EXPECT_EQ(contacts.size(), 0u);
+  EXPECT_FALSE(contactsMissing(contacts, colliders, particles));
+  particles.p[0] = Vec3(0, Real(0.005), 0);  // inside the 1 cm thick contact surface
+  EXPECT_TRUE(contactsMissing(contacts, colliders, particles));
+  detectContacts(contacts, colliders, particles, h, particles.p);
+  ASSERT_EQ(contacts.size(), 1u);
+  EXPECT_EQ(contacts.particle[0], 0u);
+  EXPECT_FALSE(contactsMissing(contacts, colliders, particles));
+  projectContacts(contacts, colliders, particles, SolverKind::ColoredGaussSeidel);
+  EXPECT_NEAR(particles.p[0].y(), 0.01, 1e-6);  // pushed out to the contact surface
+  EXPECT_EQ(particles.p[1], Vec3(1, 1, 0));
 }
 
 TEST(SphereContact, RejectsBadSpheres) {

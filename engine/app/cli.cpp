@@ -285,6 +285,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
         {"broad_phases", c.broadPhases},
         {"broad_phase_refreshes", c.broadPhaseRefreshes},
         {"solve_redetections", c.solveRedetections},
+        {"collider_redetections", c.colliderRedetections},
         {"candidate_pairs", c.candidatePairs},
         {"contacts", c.contacts},
         {"clamped_particles", c.clampedParticles},

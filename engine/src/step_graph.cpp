@@ -162,13 +162,23 @@ void StepGraph::runStage(int stage) {
     }
     case kSolve: {
       double contactSeconds = 0;
-      std::size_t missed = 0, redetections = 0, cascadeProjections = 0;
+      std::size_t missed = 0, redetections = 0, colliderRedetections = 0, cascadeProjections = 0;
       CrossingReport crossing;
       profile.solve += timed([&] {
         if (s.solver.kind == SolverKind::Multigrid) {
           cascadeProjections = runMultigridCascade(
               s.hierarchies, s.objects, s.particles, s.cascadeStart, s.solver.sweepsPerLevel,
               projectAllContacts, &s, contactOffsetsOf(s.primitiveContacts));
+          // The cascade moves particles by whole coarse corrections, farther than the collider
+          // contacts' reach beyond their predicted motion: where it carried one without a contact
+          // toward a collider, the pool is refilled over the motion to where it is now (else the
+          // particle would end the solve inside and count as a missed contact). The new pool
+          // starts its multipliers at zero, so friction forgets the cascade's normal pushes.
+          if (s.colliders.size() > 0 && contactsMissing(s.contacts, s.colliders, s.particles)) {
+            detectContacts(s.contacts, s.colliders, s.particles, h_, s.particles.p);
+            projectContacts(s.contacts, s.colliders, s.particles, fineSweepKind(s.solver));
+            ++colliderRedetections;
+          }
         }
         // Multigrid repeats its cascade between fine rounds when the schedule asks for it.
         struct Repeat {
@@ -215,6 +225,7 @@ void StepGraph::runStage(int stage) {
       report.clampedParticles += crossing.clamped;
       report.broadPhases += redetections;
       report.solveRedetections += redetections;
+      report.colliderRedetections += colliderRedetections;
       report.crossings += crossing.crossings;
       report.stoppedParticles += crossing.stopped;
       report.unresolvedPairs += crossing.unresolved;

@@ -49,13 +49,16 @@ struct CollisionReport {
   std::uint64_t broadPhases = 0;          // broad-phase runs: one per step, plus the refreshes
   std::uint64_t broadPhaseRefreshes = 0;  // runs within a step: a prediction left its bounds
   std::uint64_t solveRedetections = 0;    // runs after a solve that left the bounds
-  std::uint64_t candidatePairs = 0;       // broad-phase pairs, summed over substeps
-  std::uint64_t contacts = 0;             // primitive contacts made, summed over substeps
-  std::uint64_t clampedParticles = 0;     // particles held within their broad-phase bounds
-  std::uint64_t crossings = 0;            // crossing pairs the fail-safe stopped
-  std::uint64_t stoppedParticles = 0;     // particle positions the fail-safe reset
-  std::uint64_t unresolvedPairs = 0;      // pairs still crossing at the fail-safe's round limit
-  std::uint64_t firstCrossingStep = 0;    // 1-based step of the first fail-safe action; 0 if none
+  // Collider contact pools refilled after the multigrid cascade had carried a particle without
+  // a contact within a collider's reach (particle_contacts.h, detectContacts).
+  std::uint64_t colliderRedetections = 0;
+  std::uint64_t candidatePairs = 0;     // broad-phase pairs, summed over substeps
+  std::uint64_t contacts = 0;           // primitive contacts made, summed over substeps
+  std::uint64_t clampedParticles = 0;   // particles held within their broad-phase bounds
+  std::uint64_t crossings = 0;          // crossing pairs the fail-safe stopped
+  std::uint64_t stoppedParticles = 0;   // particle positions the fail-safe reset
+  std::uint64_t unresolvedPairs = 0;    // pairs still crossing at the fail-safe's round limit
+  std::uint64_t firstCrossingStep = 0;  // 1-based step of the first fail-safe action; 0 if none
 };
 
 // Quality measures of the current state (ARCHITECTURE.md §6).
