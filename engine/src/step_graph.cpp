@@ -165,40 +165,43 @@ void StepGraph::runStage(int stage) {
       std::size_t missed = 0, redetections = 0, colliderRedetections = 0, cascadeProjections = 0;
       CrossingReport crossing;
       profile.solve += timed([&] {
-        if (s.solver.kind == SolverKind::Multigrid) {
-          cascadeProjections = runMultigridCascade(
-              s.hierarchies, s.objects, s.particles, s.cascadeStart, s.solver.sweepsPerLevel,
-              projectAllContacts, &s, contactOffsetsOf(s.primitiveContacts));
-          // The cascade moves particles by whole coarse corrections, farther than the collider
-          // contacts' reach beyond their predicted motion: where it carried one without a contact
-          // toward a collider, the pool is refilled over the motion to where it is now (else the
-          // particle would end the solve inside and count as a missed contact). The new pool
-          // starts its multipliers at zero, so friction forgets the cascade's normal pushes.
-          if (s.colliders.size() > 0 && contactsMissing(s.contacts, s.colliders, s.particles)) {
-            detectContacts(s.contacts, s.colliders, s.particles, h_, s.particles.p);
-            projectContacts(s.contacts, s.colliders, s.particles, fineSweepKind(s.solver));
-            ++colliderRedetections;
-          }
-        }
-        // Multigrid repeats its cascade between fine rounds when the schedule asks for it.
-        struct Repeat {
+        // The multigrid cascade, before the fine sweeps and again between fine rounds when
+        // cascade_every asks for it. It moves particles by whole coarse corrections, farther
+        // than the collider contacts' reach beyond their predicted motion: where it carried one
+        // without a contact toward a collider, the pool is refilled over the motion to where it
+        // is now (else the particle would end the solve inside and count as a missed contact).
+        // The new pool starts its multipliers at zero, so friction forgets the cascade's normal
+        // pushes.
+        struct Cascade {
           WorldState& state;
+          Real h;
           std::size_t projections = 0;
-        } repeat{s};
+          std::size_t colliderRedetections = 0;
+          void run() {
+            WorldState& w = state;
+            projections += runMultigridCascade(
+                w.hierarchies, w.objects, w.particles, w.cascadeStart, w.solver.sweepsPerLevel,
+                projectAllContacts, &w, contactOffsetsOf(w.primitiveContacts));
+            if (w.colliders.size() > 0 && contactsMissing(w.contacts, w.colliders, w.particles)) {
+              detectContacts(w.contacts, w.colliders, w.particles, h, w.particles.p);
+              projectContacts(w.contacts, w.colliders, w.particles, fineSweepKind(w.solver));
+              ++colliderRedetections;
+            }
+          }
+        } cascade{s, h_};
+        if (s.solver.kind == SolverKind::Multigrid) cascade.run();
         auto repeatCascade = [](void* context, int roundsDone) {
-          Repeat& r = *static_cast<Repeat*>(context);
-          WorldState& w = r.state;
-          if (w.solver.cascadeEvery <= 0 || roundsDone % w.solver.cascadeEvery != 0) return;
-          r.projections += runMultigridCascade(
-              w.hierarchies, w.objects, w.particles, w.cascadeStart, w.solver.sweepsPerLevel,
-              projectAllContacts, &w, contactOffsetsOf(w.primitiveContacts));
+          Cascade& c = *static_cast<Cascade*>(context);
+          const int every = c.state.solver.cascadeEvery;
+          if (every > 0 && roundsDone % every == 0) c.run();
         };
         const bool repeats = s.solver.kind == SolverKind::Multigrid && s.solver.cascadeEvery > 0;
         contactSeconds =
             solveConstraints(s.constraints, s.particles, s.plan, s.contacts, s.colliders,
                              s.primitiveContacts, fineSweepKind(s.solver), h_, s.solver.relaxation,
-                             s.solver.chebyshevRho, repeats ? +repeatCascade : nullptr, &repeat);
-        cascadeProjections += repeat.projections;
+                             s.solver.chebyshevRho, repeats ? +repeatCascade : nullptr, &cascade);
+        cascadeProjections = cascade.projections;
+        colliderRedetections = cascade.colliderRedetections;
         if (s.colliders.size() > 0)
           contactSeconds +=
               timed([&] { missed = resolveMissedContacts(s.contacts, s.colliders, s.particles); });
