@@ -38,6 +38,17 @@ struct ConstraintPool {
   // The inverse mass of each constraint's particles, in pool order, for batched kernels that load
   // them with the constraint instead of gathering them per particle.
   std::vector<std::array<Real, N>> endInverseMass;
+  // Vertex-centric Jacobi (systems/jacobi_vertex.h), for two-particle pools whose constraints are
+  // all hard and undamped (`vertexJacobi`): the slot rows, and per particle the move of the
+  // family's last Jacobi sweep, the Chebyshev history (blocks of eight particles as x×8, y×8,
+  // z×8), and per lane of the rows the sweep's multiplier step (scratch). `vertexHistory` says
+  // which history is current: the per-particle moves (the last sweep took the vertex path) or the
+  // correction slots (it took the slot path).
+  VertexSlotRows vertexRows;
+  std::vector<Real> vertexMove;
+  std::vector<Real> vertexLaneLambda;
+  bool vertexJacobi = false;
+  bool vertexHistory = false;
 
   std::size_t size() const { return particles.size(); }
 

@@ -4,6 +4,7 @@
 #include <numeric>
 
 #include "systems/constraint_graph_build.h"
+#include "systems/jacobi_vertex.h"
 #include "systems/solve_constraints.h"
 #include "systems/sweep_schedule.h"
 #include "systems/tether_sweep.h"
@@ -42,6 +43,30 @@ void buildDerivedTables(ConstraintPools& pools, const ParticlePool& particles, S
       pool.splitInverseMass[i] =
           particles.w[i] * Real(pool.incidence.offset[i + 1] - pool.incidence.offset[i]);
     pool.correction.assign(n * pool.size(), Vec3::Zero());
+    // The vertex-centric Jacobi sweep (jacobi_vertex.h) for pools of hard, undamped distance
+    // constraints; not the tethers, which are unilateral and have their own sweep. Built only
+    // for the Jacobi sweeps (a few bytes per slot that the other backends never read).
+    pool.vertexJacobi = false;
+    pool.vertexHistory = false;
+    pool.vertexRows = {};
+    pool.vertexMove.clear();
+    pool.vertexLaneLambda.clear();
+    if constexpr (n == 2) {
+      const bool hard =
+          pool.undamped &&
+          std::all_of(pool.compliance.begin(), pool.compliance.end(),
+                      [](Real alpha) { return alpha == 0; }) &&
+          std::all_of(pool.compressionCompliance.begin(), pool.compressionCompliance.end(),
+                      [](Real alpha) { return alpha == 0; });
+      if (kind == SolverKind::Jacobi && hard && pool.size() > 0 &&
+          static_cast<const void*>(&pool) != static_cast<const void*>(&pools.tether)) {
+        pool.vertexRows =
+            buildVertexSlotRows(tuples, pool.rest, pool.incidence, pool.splitInverseMass);
+        pool.vertexMove.assign(3 * VertexSlotRows::kLanes * pool.vertexRows.blockCount(), 0);
+        pool.vertexLaneLambda.assign(pool.vertexRows.other.size(), 0);
+        pool.vertexJacobi = true;
+      }
+    }
   });
 }
 

@@ -9,7 +9,9 @@
 // the Jacobi step scaled by ω plus ω − 1 times the previous move. Each constraint keeps its own
 // share of that previous move in its correction slots (the per-slot form of the same recurrence:
 // the gather averages the slots, so averaging u = ω γ Δx + (ω − 1) u_prev over a particle's slots
-// gives exactly the move above), so no per-particle history is needed.
+// gives exactly the move above), so the slot path needs no per-particle history. The
+// vertex-centric sweep of hard distance constraints (jacobi_vertex.h) writes no slots and keeps
+// that average itself, the previous move, per particle.
 #pragma once
 
 #include <array>
