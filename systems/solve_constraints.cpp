@@ -61,7 +61,8 @@ double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const S
                         PrimitiveContactPool& primitiveContacts, SolverKind kind, Real h,
                         Real relaxation, Real chebyshevRho, RoundHook betweenRounds,
                         void* hookContext) {
-  // Multigrid's fine sweeps are colored Gauss–Seidel sweeps (its cascade runs before them).
+  // The step passes the fine sweeps' backend (fineSweepKind: multigrid's smoother); a caller
+  // that passes multigrid itself gets its default smoother, colored Gauss–Seidel.
   if (kind == SolverKind::Multigrid) kind = SolverKind::ColoredGaussSeidel;
   const bool anyContacts = contacts.size() > 0 || primitiveContacts.size() > 0;
   pools.forEach([](auto& pool) { std::fill(pool.lambda.begin(), pool.lambda.end(), Real(0)); });
