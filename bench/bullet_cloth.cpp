@@ -147,7 +147,7 @@ RunResult runBulletCloth(const ClothCase& c, const ClothMesh& mesh) {
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     if (step >= c.warmup) timed += seconds;
     read();
-    observeStep(c, mesh, x, r);
+    observeStep(c, mesh, x, step, r);
   }
   r.msPerStep = timed * 1e3 / (c.steps - c.warmup);
   finishRun(c, mesh, x, r);

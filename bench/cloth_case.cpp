@@ -179,11 +179,28 @@ double spherePenetration(const ClothCase& c, const std::vector<Vec3>& positions)
   return deepest;
 }
 
+double strainP99(const ClothMesh& mesh, const std::vector<Vec3>& positions) {
+  std::vector<double> strains;
+  strains.reserve(mesh.edges.size());
+  for (std::size_t i = 0; i < mesh.edges.size(); ++i) {
+    const auto& e = mesh.edges[i];
+    strains.push_back(
+        std::abs((positions[e[1]] - positions[e[0]]).norm() / mesh.restLength[i] - 1.0));
+  }
+  return nearestRankPercentile(strains, 0.99);
+}
+
 void observeStep(const ClothCase& c, const ClothMesh& mesh, const std::vector<Vec3>& positions,
-                 RunResult& result) {
+                 int step, RunResult& result) {
   const StrainStats strain = measureStrain(mesh, positions);
   result.peakMaxStrain = std::max(result.peakMaxStrain, strain.max);
   result.averageMeanStrain += strain.mean / c.steps;
+  const int lateSteps = c.steps - c.steps / 2;
+  if (step >= c.steps / 2) {
+    result.lateStrain.mean += strain.mean / lateSteps;
+    result.lateStrain.max += strain.max / lateSteps;
+    result.lateStrainP99 += strainP99(mesh, positions) / lateSteps;
+  }
   if (c.scene != ClothScene::Mesh) return;
   // Only how far a vertex is inside or near the contact distance matters; farther points need
   // no exact distance.
@@ -205,14 +222,7 @@ void finishRun(const ClothCase& c, const ClothMesh& mesh, const std::vector<Vec3
                RunResult& result) {
   result.finalStrain = measureStrain(mesh, positions);
   // The same definition as nucleon's own strain_p99, over the same edges for both engines.
-  std::vector<double> strains;
-  strains.reserve(mesh.edges.size());
-  for (std::size_t i = 0; i < mesh.edges.size(); ++i) {
-    const auto& e = mesh.edges[i];
-    strains.push_back(
-        std::abs((positions[e[1]] - positions[e[0]]).norm() / mesh.restLength[i] - 1.0));
-  }
-  result.finalStrainP99 = nearestRankPercentile(strains, 0.99);
+  result.finalStrainP99 = strainP99(mesh, positions);
   result.penetration = spherePenetration(c, positions);
   result.lowestY = 1e30;
   for (const Vec3& v : positions) {

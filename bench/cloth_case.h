@@ -116,7 +116,12 @@ struct RunResult {
   double finalStrainP99 = 0;        // 99th percentile of the same, nearest rank
   double peakMaxStrain = 0;         // largest max strain seen after any step
   double averageMeanStrain = 0;     // mean strain averaged over all steps (less phase-dependent)
-  double penetration = 0;           // sphere scene: deepest vertex inside the sphere
+  // Mean, p99 and max strain of each step averaged over the second half of the run (steps
+  // ⌊steps/2⌋+1 … steps: the cloth hanging or draped, past its first fall). One step's figures
+  // depend on where the swing is; a single sample of a chaotic run can flatter either side.
+  StrainStats lateStrain;
+  double lateStrainP99 = 0;
+  double penetration = 0;  // sphere scene: deepest vertex inside the sphere
   double lowestY = 0;
   // Mesh scene, from the signed distance s of every cloth vertex to the mesh after every step:
   // the smallest s over the run (the deepest penetration below the contact distance d is
@@ -131,10 +136,13 @@ struct RunResult {
   bool finite = true;
 };
 
-// Updates the figures tracked over the run (peak strain, mean strain, the mesh scene's distances)
-// from the positions after one step.
+// |L/L0 − 1| of every mesh edge, nearest-rank 99th percentile (nucleon's strain_p99 definition).
+double strainP99(const ClothMesh& mesh, const std::vector<Vec3>& positions);
+
+// Updates the figures tracked over the run (peak strain, mean strain, the late-run averages, the
+// mesh scene's distances) from the positions after step `step` (0-based).
 void observeStep(const ClothCase& c, const ClothMesh& mesh, const std::vector<Vec3>& positions,
-                 RunResult& result);
+                 int step, RunResult& result);
 
 // Fills the end-of-run figures (final strain and its 99th percentile, penetration, lowest
 // point, finiteness) from the positions after the last step.

@@ -55,7 +55,7 @@ RunResult runNucleonCloth(const ClothCase& c, const ClothMesh& mesh, SolverKind 
     if (step >= c.warmup) timed += seconds;
     const auto positions = world.positions(clothId);
     x.assign(positions.begin(), positions.end());
-    observeStep(c, mesh, x, r);
+    observeStep(c, mesh, x, step, r);
   }
   const int measured = c.steps - c.warmup;
   r.msPerStep = timed * 1e3 / measured;
