@@ -6,7 +6,7 @@
 //                       [--bending off|on|both] [--solvers colored-gs,jacobi,multigrid]
 //                       (also multigrid-jacobi: multigrid with Jacobi fine sweeps)
 //                       [--tethers on|off|both] [--threads 2 | 1,2] [--repeats 3] [--steps 120]
-//                       [--warmup 10] [--bullet-collision sdf|cluster|both]
+//                       [--warmup 10] [--substeps S] [--bullet-collision sdf|cluster|both]
 //                       [--mesh-offset 0.15] [--csv FILE] [--no-bullet]
 //
 // The `mesh` scene (not in the default list) drops a free cloth onto a static icosphere triangle
@@ -63,6 +63,7 @@ struct Options {
   int repeats = 3;
   int steps = 120;
   int warmup = 10;
+  int substeps = 0;  // > 0: substeps per step for every scene (0 keeps each scene's own)
   std::string csv;
   bool bullet = true;
 };
@@ -137,6 +138,8 @@ Options parse(int argc, char** argv) {
       o.repeats = parseIntList(a, value(), 1, 1000).front();
     } else if (a == "--steps") {
       o.steps = parseIntList(a, value(), 2, 100000).front();
+    } else if (a == "--substeps") {
+      o.substeps = parseIntList(a, value(), 1, 1000).front();
     } else if (a == "--warmup") {
       o.warmup = parseIntList(a, value(), 0, 100000).front();
     } else if (a == "--mesh-offset") {
@@ -248,6 +251,7 @@ int run(const Options& o) {
           c.bending = bending;
           c.steps = o.steps;
           c.warmup = o.warmup;
+          if (o.substeps > 0) c.substeps = o.substeps;
           if (o.meshOffset >= 0) c.meshCenter.x() = Real(o.meshOffset);
           const ClothMesh mesh = makeClothMesh(c);
           // Every nucleon configuration: solver × tethers × threads.
