@@ -41,6 +41,10 @@ struct VertexSlotRows {
   std::vector<Index> lambdaLane;
   std::vector<Real> splitInverseMass;  // per particle: W_i = n_i w_i (0 on padding)
   std::vector<Real> inverseMass;       // per particle: w_i = W_i / n_i (0 on padding)
+  // Per particle: 1 where it has at least kSheetSlots slots (inside a sheet or a solid), 0 where
+  // it has fewer (on a chain, at a chain's end, or padding); picks the step's relaxation.
+  std::vector<Real> sheet;
+  static constexpr Index kSheetSlots = 3;
   std::size_t blockCount() const { return blockRow.empty() ? 0 : blockRow.size() - 1; }
 };
 

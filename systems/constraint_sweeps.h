@@ -38,6 +38,9 @@ struct SweepContext {
   // index. A context lives for one substep's solve, so the count restarts with every substep.
   mutable JacobiSweepCounter jacobiSweeps{};
   Real chebyshevRho = kChebyshevSpectralRadius;  // Jacobi: the spectral radius estimate ρ
+  // Jacobi's γ for the particles of a sheet or solid (at least three constraints in the pool)
+  // in the vertex-centric sweep; 0: `relaxation`, as for every other particle.
+  Real sheetRelaxation = 0;
 };
 
 namespace sweep_detail {
@@ -204,6 +207,8 @@ void solveJacobi(ConstraintPool<N>& pool, const SweepContext& context,
       const bool carries = factors.carry != 0 && pool.vertexHistory;
       VertexJacobiStep step;
       step.factor = carries ? factors.step : factors.relaxation;
+      const Real sheet = context.sheetRelaxation > 0 ? context.sheetRelaxation : context.relaxation;
+      step.sheetFactor = carries ? omega * sheet : sheet;
       step.carry = carries ? factors.carry : Real(0);
       solveDistanceJacobiVertex(pool.vertexRows, pool.vertexMove, pool.vertexLaneLambda,
                                 pool.lambda, context.particles.p, step);

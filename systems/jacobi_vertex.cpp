@@ -29,6 +29,7 @@ void moveBlockScalar(const VertexSlotRows& rows, std::size_t b, std::span<const 
     if (i >= positions.size()) break;
     const Vec3 own = positions[i];
     const Real ownW = rows.splitInverseMass[i];
+    const Real factor = rows.sheet[i] != 0 ? step.sheetFactor : step.factor;
     Vec3 sum = Vec3::Zero();
     for (Index r = rows.blockRow[b]; r < rows.blockRow[b + 1]; ++r) {
       const std::size_t at = kLanes * r + lane;
@@ -39,9 +40,9 @@ void moveBlockScalar(const VertexSlotRows& rows, std::size_t b, std::span<const 
       if (!(length >= kTiny) || !(stiffness >= kTiny)) continue;
       const Real s = (rows.rest[at] - length) / (stiffness * length);
       sum += s * d;
-      laneLambda[at] = step.factor * s * length;
+      laneLambda[at] = factor * s * length;
     }
-    Vec3 m = (step.factor * rows.inverseMass[i]) * sum;
+    Vec3 m = (factor * rows.inverseMass[i]) * sum;
     Real* history = move + 3 * kLanes * b + lane;
     if (step.carry != 0) {
       const Vec3 previous(history[0], history[kLanes], history[2 * kLanes]);
@@ -69,9 +70,13 @@ static_assert(std::is_same_v<Real, float>, "the batched vertex path is float-onl
   const __m256i laneIndex = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256i lastParticle = _mm256_set1_epi32(static_cast<int>(positions.size()) - 1);
   const __m256 tiny = _mm256_set1_ps(kTiny), zero = _mm256_setzero_ps();
-  const __m256 factor = _mm256_set1_ps(step.factor), carry = _mm256_set1_ps(step.carry);
+  const __m256 chainFactor = _mm256_set1_ps(step.factor), carry = _mm256_set1_ps(step.carry);
+  const __m256 sheetExtra = _mm256_set1_ps(step.sheetFactor - step.factor);
   const bool accelerated = step.carry != 0;
   for (std::size_t b = begin; b < end; ++b) {
+    // Per particle: the chain factor, plus the sheet's extra where rows.sheet is 1.
+    const __m256 factor =
+        _mm256_fmadd_ps(sheetExtra, _mm256_loadu_ps(rows.sheet.data() + kLanes * b), chainFactor);
     // Lanes past the last particle read the last particle (their rows are all padding).
     const __m256i own = _mm256_min_epi32(
         _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(kLanes * b)), laneIndex), lastParticle);
@@ -165,6 +170,7 @@ VertexSlotRows buildVertexSlotRows(std::span<const std::array<Index, 2>> constra
   rows.lambdaLane.assign(constraints.size(), 0);
   rows.splitInverseMass.assign(kLanes * blocks, 0);
   rows.inverseMass.assign(kLanes * blocks, 0);
+  rows.sheet.assign(kLanes * blocks, 0);
   for (std::size_t b = 0; b < blocks; ++b)
     for (Index lane = 0; lane < kLanes; ++lane) {
       const std::size_t i = kLanes * b + lane;
@@ -177,6 +183,7 @@ VertexSlotRows buildVertexSlotRows(std::span<const std::array<Index, 2>> constra
       const Index count = slotsOf(i);
       rows.splitInverseMass[i] = splitInverseMass[i];
       rows.inverseMass[i] = count == 0 ? Real(0) : splitInverseMass[i] / Real(count);
+      rows.sheet[i] = count >= VertexSlotRows::kSheetSlots ? Real(1) : Real(0);
       for (Index k = 0; k < count; ++k) {
         const Index slot = incidence.slot[incidence.offset[i] + k];
         const Index c = slot / 2, end = slot % 2;

@@ -49,8 +49,9 @@ VertexSlotRows buildVertexSlotRows(std::span<const std::array<Index, 2>> constra
                                    std::span<const Real> splitInverseMass);
 
 struct VertexJacobiStep {
-  Real factor = 1;  // the step's scale: ω γ on accelerated sweeps, γ on plain ones
-  Real carry = 0;   // ω − 1; 0 on plain sweeps, which neither read nor carry the history
+  Real factor = 1;       // the step's scale: ω γ on accelerated sweeps, γ on plain ones
+  Real sheetFactor = 1;  // the same with the sheet relaxation, for particles with rows.sheet = 1
+  Real carry = 0;        // ω − 1; 0 on plain sweeps, which neither read nor carry the history
 };
 
 // One sweep: moves `positions` (p) and adds factor · Δλ_c to lambda[c] (the value its end-0 slot

@@ -60,7 +60,7 @@ double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const S
                         ContactPool& contacts, const ColliderPool& colliders,
                         PrimitiveContactPool& primitiveContacts, SolverKind kind, Real h,
                         Real relaxation, Real chebyshevRho, RoundHook betweenRounds,
-                        void* hookContext) {
+                        void* hookContext, Real sheetRelaxation) {
   // The step passes the fine sweeps' backend (fineSweepKind: multigrid's smoother); a caller
   // that passes multigrid itself gets its default smoother, colored Gauss–Seidel.
   if (kind == SolverKind::Multigrid) kind = SolverKind::ColoredGaussSeidel;
@@ -68,6 +68,7 @@ double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const S
   pools.forEach([](auto& pool) { std::fill(pool.lambda.begin(), pool.lambda.end(), Real(0)); });
   SweepContext context{particles, h, relaxation, nullptr};
   context.chebyshevRho = chebyshevRho;
+  context.sheetRelaxation = sheetRelaxation;
   double contactSeconds = 0;
   int roundsDone = 0;
   for (const SweepOp& op : plan.ops) {

@@ -19,13 +19,14 @@ namespace nucleon {
 // after them. Returns the seconds spent in contact projection, which the profile books as
 // collisions. After each round but the last (its contacts projected), `betweenRounds(context,
 // r)` is called with the number r ≥ 1 of rounds done, if given: the multigrid backend repeats
-// its cascade there.
+// its cascade there. `sheetRelaxation` is Jacobi's γ for the particles of sheets and solids in the
+// vertex-centric sweep (SolverSettings::sheetRelaxation; 0: `relaxation`).
 using RoundHook = void (*)(void* context, int roundsDone);
 double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const SweepPlan& plan,
                         ContactPool& contacts, const ColliderPool& colliders,
                         PrimitiveContactPool& primitiveContacts, SolverKind kind, Real h,
                         Real relaxation, Real chebyshevRho, RoundHook betweenRounds = nullptr,
-                        void* context = nullptr);
+                        void* context = nullptr, Real sheetRelaxation = 0);
 
 // Constraint projections one substep of `plan` performs (for throughput figures).
 std::uint64_t countProjections(const ConstraintPools& pools, const ParticlePool& particles,

@@ -135,5 +135,27 @@ TEST(JacobiVertex, SameResultForOneAndTwoThreads) {
   EXPECT_EQ(lambda[0], lambda[1]);
 }
 
+// The sheet relaxation applies only to particles with at least three constraints in the pool. A
+// rope's particles have one or two: its motion is bitwise the same whatever the setting, while
+// the chains' γ (`relaxation`) does change it.
+TEST(JacobiVertex, SheetRelaxationLeavesChainsAlone) {
+  auto swing = [](Real relaxation, Real sheet) {
+    World world;
+    SolverSettings settings = test::solverSettings(SolverKind::Jacobi, 10, 1);
+    settings.relaxation = relaxation;
+    settings.sheetRelaxation = sheet;
+    world.setSolver(settings);
+    ObjectDef rope = polylineRope(Vec3(0, 1, 0), Vec3(2, 1, 0), 40);
+    rope.pins = {0};
+    world.addRope(rope);
+    test::simulate(world, 30);
+    EXPECT_TRUE(world.impl().state.constraints.stretch.vertexJacobi);
+    return world.stateHash();
+  };
+  const auto plain = swing(1, 1);
+  EXPECT_EQ(plain, swing(1, Real(1.7)));
+  EXPECT_NE(plain, swing(Real(1.2), 1));
+}
+
 }  // namespace
 }  // namespace nucleon

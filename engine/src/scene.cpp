@@ -582,8 +582,8 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
   }
   if (top.has("solver")) {
     const Reader s = top.child("solver");
-    s.allowOnly({"type", "iterations", "substeps", "relaxation", "chebyshev_rho",
-                 "sweeps_per_level", "cascade_every", "smoother", "schedule"});
+    s.allowOnly({"type", "iterations", "substeps", "relaxation", "sheet_relaxation",
+                 "chebyshev_rho", "sweeps_per_level", "cascade_every", "smoother", "schedule"});
     const std::string type = s.string("type", toString(scene.solver.kind));
     if (!parseSolverKind(type, scene.solver.kind))
       s.fail(s.at("type"), "unknown solver '" + type + "'");
@@ -591,6 +591,8 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     scene.solver.substeps = s.integer("substeps", scene.solver.substeps, 1, 10000);
     scene.solver.relaxation =
         static_cast<Real>(s.number("relaxation", scene.solver.relaxation, 0.01, 1.99));
+    scene.solver.sheetRelaxation =
+        static_cast<Real>(s.number("sheet_relaxation", scene.solver.sheetRelaxation, 0.01, 1.99));
     scene.solver.chebyshevRho =
         static_cast<Real>(s.number("chebyshev_rho", scene.solver.chebyshevRho, 0, 0.9999));
     if (s.has("sweeps_per_level")) scene.solver.sweepsPerLevel = s.levelSweeps("sweeps_per_level");

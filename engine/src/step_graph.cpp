@@ -196,10 +196,10 @@ void StepGraph::runStage(int stage) {
           if (every > 0 && roundsDone % every == 0) c.run();
         };
         const bool repeats = s.solver.kind == SolverKind::Multigrid && s.solver.cascadeEvery > 0;
-        contactSeconds =
-            solveConstraints(s.constraints, s.particles, s.plan, s.contacts, s.colliders,
-                             s.primitiveContacts, fineSweepKind(s.solver), h_, s.solver.relaxation,
-                             s.solver.chebyshevRho, repeats ? +repeatCascade : nullptr, &cascade);
+        contactSeconds = solveConstraints(
+            s.constraints, s.particles, s.plan, s.contacts, s.colliders, s.primitiveContacts,
+            fineSweepKind(s.solver), h_, s.solver.relaxation, s.solver.chebyshevRho,
+            repeats ? +repeatCascade : nullptr, &cascade, s.solver.sheetRelaxation);
         cascadeProjections = cascade.projections;
         colliderRedetections = cascade.colliderRedetections;
         if (s.colliders.size() > 0)

@@ -449,6 +449,9 @@ void World::setSolver(const SolverSettings& settings) {
   require(settings.substeps >= 1 && settings.substeps <= 10000, "substeps must be in [1, 10000]");
   require(std::isfinite(settings.relaxation) && settings.relaxation > 0 && settings.relaxation < 2,
           "relaxation must be in (0, 2)");
+  require(std::isfinite(settings.sheetRelaxation) && settings.sheetRelaxation > 0 &&
+              settings.sheetRelaxation < 2,
+          "sheet_relaxation must be in (0, 2)");
   require(std::isfinite(settings.chebyshevRho) && settings.chebyshevRho >= 0 &&
               settings.chebyshevRho <= Real(0.9999),
           "chebyshev_rho must be in [0, 0.9999]");

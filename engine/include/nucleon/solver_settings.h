@@ -22,6 +22,14 @@ struct SolverSettings {
   // its constraints' corrections, before the Chebyshev acceleration scales it (ARCHITECTURE.md
   // §3, jacobi). Ignored by the Gauss–Seidel backends.
   Real relaxation = 1;
+  // Jacobi's γ in (0, 2) for the particles of an inextensible sheet or solid: those with at
+  // least three constraints in a pool of hard, undamped distance constraints, which the
+  // vertex-centric sweep takes (ARCHITECTURE.md §3, jacobi). Averaging n_i ≥ 3 corrections in
+  // different directions moves a particle a fraction of what an ordered sweep would, and
+  // over-relaxing recovers part of it (successive over-relaxation of averaged constraints,
+  // Macklin et al. 2014, "Unified Particle Physics for Real-Time Applications"). The particles
+  // of chains keep `relaxation`: over-relaxed, a swinging rope gains energy.
+  Real sheetRelaxation = Real(1.7);
   // Jacobi's Chebyshev acceleration: the estimate ρ ∈ [0, 0.9999] of the plain iteration's
   // spectral radius (0: no acceleration). Higher converges faster on a hanging cloth and
   // extrapolates harder through contacts (ARCHITECTURE.md §3, jacobi). Ignored by the others.
