@@ -15,7 +15,8 @@ trap 'rm -rf "$tmp"' EXIT
 # 18 tether_constraints 19 nan_count 20 state_hash
 # Rows with a sort key in front (scene, backend in the order below, substeps, then $1 and $2 of
 # the caller), the key cut off again: mawk has no sort of its own.
-rank='BEGIN { r["gauss-seidel"] = 1; r["jacobi"] = 2; r["colored-gs"] = 3; r["multigrid"] = 4 }'
+rank='BEGIN { r["gauss-seidel"] = 1; r["jacobi"] = 2; r["colored-gs"] = 3; r["multigrid"] = 4
+  r["multigrid-jacobi"] = 5 }'
 sorted() {  # $1: awk condition on the rows; $2: the last two keys as awk expressions
   awk -F, "$rank NR > 1 && ($1) { k = r[\$2]; if (k == \"\") k = 9
     printf \"%s,%d,%04d,%s,%s,%s\\n\", \$1, k, \$3, $2, \$0 }" "$csv" |
@@ -38,7 +39,8 @@ awk -F, -v OFS=, '$2 == "colored-gs" && $3 * $4 == 10 { print $1, $3, $6 }' "$tm
   echo "corners, inextensible (stretch and compression compliance 0), tethers on, 60 steps a second."
   echo "Every row is one \`nucleon bench\` of the scene with \`solver.substeps\` set to S, \`--solver B"
   echo "--iterations K\` (K sweeps of each family per substep; multigrid: K colored Gauss–Seidel fine"
-  echo "sweeps after its coarse-to-fine cascade, the scene's sweeps per coarse level), the frame count"
+  echo "sweeps after its coarse-to-fine cascade, the scene's sweeps per coarse level; multigrid-jacobi:"
+  echo "the same with K Jacobi fine sweeps, the scene's \`smoother\` set to jacobi), the frame count"
   echo "run from a fresh world with the first steps untimed; ms/step is the median of the repeats."
   echo "Strain |L/L0 − 1| of the stretch constraints after the last frame (mean, 99th percentile,"
   echo "max). Sweep cost: constraint projections per step (the engine's count, the multigrid"
@@ -150,13 +152,14 @@ awk -F, -v tmp="$tmp" '{ print $6, $7, $8, $9 > (tmp "/s_" $1 "_" $3 "_" $2 ".da
 color() {
   case "$1" in
     gauss-seidel) echo "#1f77b4" ;; jacobi) echo "#d62728" ;;
-    colored-gs) echo "#2ca02c" ;; multigrid) echo "#9467bd" ;; *) echo "#555555" ;;
+    colored-gs) echo "#2ca02c" ;; multigrid) echo "#9467bd" ;;
+    multigrid-jacobi) echo "#ff7f0e" ;; *) echo "#555555" ;;
   esac
 }
 series() {  # $1 scene, $2 substeps, $3 x column, $4 y column: one curve per backend; $5 "1%"
   # draws the 1% line of the time-to-1% table
   local first=1 b f
-  for b in gauss-seidel jacobi colored-gs multigrid; do
+  for b in gauss-seidel jacobi colored-gs multigrid multigrid-jacobi; do
     f=$tmp/s_$1_$2_$b.dat
     [[ -e "$f" ]] || continue
     ((first)) || printf ', '

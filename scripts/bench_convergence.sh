@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Convergence of the four solver backends on the hanging cloths (assets/scenes/cloth_hang_128 and
+# Convergence of the solver backends on the hanging cloths (assets/scenes/cloth_hang_128 and
 # cloth_hang_256: 2 m, two pinned corners, inextensible, tethers on): the strain a run leaves
 # against its wall time and against its sweep cost, over a ladder of sweep counts per substep at
 # 1, 2 and 10 substeps. Writes into bench/results/<machine>/:
@@ -58,7 +58,8 @@ mkdir -p "$out"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
-backends="gauss-seidel jacobi colored-gs multigrid"
+# multigrid-jacobi is the multigrid backend with Jacobi fine sweeps (the scene's "smoother").
+backends="gauss-seidel jacobi colored-gs multigrid multigrid-jacobi"
 # Sweeps per substep for each substep count. The products S × K span about 3 to 40 fine sweeps
 # per step and each ladder holds S × K = 10, the colored-gs reference of the equal-time table.
 ladder_1="3 5 8 10 15 20 30 40"
@@ -112,22 +113,25 @@ for n in $scenes; do
     ladder_var=ladder_$s
     grep -q '"substeps": *[0-9]' "$scene" || { echo "$scene: no \"substeps\" key" >&2; exit 1; }
     sed "s/\"substeps\": *[0-9]*/\"substeps\": $s/" "$scene" >"$tmp/scene.json"
+    sed 's/"substeps":/"smoother": "jacobi", "substeps":/' "$tmp/scene.json" >"$tmp/scene_jacobi.json"
     for k in ${!ladder_var}; do
       for b in $backends; do
-        t=$threads
+        t=$threads solver=$b file=$tmp/scene.json
         [[ "$b" == gauss-seidel ]] && t=2
-        "$bin/nucleon" bench "$tmp/scene.json" --solver "$b" --iterations "$k" --threads "$t" \
+        [[ "$b" == multigrid-jacobi ]] && solver=multigrid file=$tmp/scene_jacobi.json
+        "$bin/nucleon" bench "$file" --solver "$solver" --iterations "$k" --threads "$t" \
           --steps $((frames - warmup)) --warmup "$warmup" --repeats "$repeats" \
           --csv "$tmp/bench.csv" >/dev/null
         # Columns by name, so that columns added to the bench CSV later do not shift them.
-        awk -F, -v OFS=, -v scene="$name" -v s="$s" -v frames="$frames" -v warmup="$warmup" \
+        awk -F, -v OFS=, -v scene="$name" -v backend="$b" -v s="$s" -v frames="$frames" \
+          -v warmup="$warmup" \
           -v fine="$fine" -v stretch="$stretch" -v tether="$tether" '
           NR == 1 { for (i = 1; i <= NF; i++) col[$i] = i; next }
           {
             ms = $(col["ms_per_step"])
             # mprojections_per_s = projections / (ms/step · steps) · 10⁻³, so per step:
             proj = $(col["mprojections_per_s"]) * ms * 1e3
-            print scene, $(col["solver"]), s, $(col["iterations"]), $(col["threads"]), ms,
+            print scene, backend, s, $(col["iterations"]), $(col["threads"]), ms,
               sprintf("%.3f", proj / fine), $(col["mean_strain"]), $(col["strain_p99"]),
               $(col["max_strain"]), $(col["recoveries"]), frames, warmup, $(col["repeats"]),
               sprintf("%.0f", proj), fine, stretch, tether, $(col["nan_count"]),
