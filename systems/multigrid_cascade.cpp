@@ -36,8 +36,9 @@ void projectLimit(ParticlePool& particles, const std::array<Index, 2>& edge, Rea
 }
 
 // A level this small is swept on the calling thread: a color of a few hundred edges costs less
-// than the barrier a parallel loop puts after it. The colors are independent sets, so the serial
-// sweep in color order gives the same result bit for bit.
+// than the barrier a parallel loop puts after it. The colors are independent sets, and the
+// parallel pieces of a color start a whole number of batches from its start (sweepLevel), so
+// the serial sweep in color order gives the same result bit for bit.
 constexpr std::size_t kSerialEdges = 8192;
 
 // Edges [begin, end) of one color: eight at a time where the AVX2 batch runs (the same PBD step,
@@ -61,9 +62,14 @@ void sweepLevel(const HierarchyLevel& level, ParticlePool& particles) {
       sweepEdges(level, particles, begin, end);
       continue;
     }
-    tbb::parallel_for(tbb::blocked_range<Index>(begin, end, kEdgeGrain),
+    // Pieces of whole batches: which edges the AVX2 batch takes, and which the scalar remainder
+    // (they round differently), must not depend on how the loop is split, or the result would
+    // depend on the thread count.
+    const Index batches = (end - begin + kDistanceBatchSize - 1) / kDistanceBatchSize;
+    tbb::parallel_for(tbb::blocked_range<Index>(0, batches, kEdgeGrain / kDistanceBatchSize),
                       [&](const tbb::blocked_range<Index>& r) {
-                        sweepEdges(level, particles, r.begin(), r.end());
+                        sweepEdges(level, particles, begin + r.begin() * kDistanceBatchSize,
+                                   std::min(end, begin + r.end() * kDistanceBatchSize));
                       });
   }
 }
