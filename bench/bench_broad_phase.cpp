@@ -20,7 +20,7 @@
 #include "components/collision_primitives.h"
 #include "components/primitive_bvh.h"
 #include "nucleon/shapes.h"
-#include "systems/broad_phase.h"
+#include "systems/collision/broad_phase.h"
 
 namespace nucleon {
 namespace {

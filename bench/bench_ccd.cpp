@@ -1,8 +1,8 @@
-// Continuous collision detection (systems/ccd.h) on the public query set tests/data/ccd_public.txt
-// (vertex–face and edge–edge queries with exact ground truth): time per query for each kind, at
-// thickness 0 and 1e-3, with the hits and, against the thickness-0 truth, the false negatives and
-// false positives. At thickness 1e-3 the truth no longer applies to near misses, so the false
-// positives there count pairs that come within the thickness without touching.
+// Continuous collision detection (systems/collision/ccd.h) on the public query set
+// tests/data/ccd_public.txt (vertex–face and edge–edge queries with exact ground truth): time per
+// query for each kind, at thickness 0 and 1e-3, with the hits and, against the thickness-0 truth,
+// the false negatives and false positives. At thickness 1e-3 the truth no longer applies to near
+// misses, so the false positives there count pairs that come within the thickness without touching.
 #include <array>
 #include <cstdint>
 #include <fstream>
@@ -13,7 +13,7 @@
 
 #include <benchmark/benchmark.h>
 
-#include "systems/ccd.h"
+#include "systems/collision/ccd.h"
 
 namespace nucleon {
 namespace {

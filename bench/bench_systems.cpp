@@ -24,12 +24,12 @@
 
 #include "engine/src/world_state.h"
 #include "nucleon/shapes.h"
-#include "systems/constraint_sweeps.h"
-#include "systems/integrate.h"
-#include "systems/measures.h"
-#include "systems/multigrid_cascade.h"
-#include "systems/particle_contacts.h"
-#include "systems/tether_sweep.h"
+#include "systems/collision/particle_contacts.h"
+#include "systems/diagnostics/measures.h"
+#include "systems/dynamics/integrate.h"
+#include "systems/solver/constraint_sweeps.h"
+#include "systems/solver/multigrid_cascade.h"
+#include "systems/solver/tether_sweep.h"
 
 namespace {
 
@@ -99,8 +99,8 @@ void prepare(World& world, SolverKind kind, int threads, int frames = 5) {
   predictPositions(s.particles, kH);
 }
 
-// The sweep the solve stage runs for a family (systems/solve_constraints.cpp): the generic sweep
-// of the backend, except the tethers, which have their own.
+// The sweep the solve stage runs for a family (systems/solver/solve_constraints.cpp): the generic
+// sweep of the backend, except the tethers, which have their own.
 template <class Kernel, std::size_t N>
 void sweepFamily(SolverKind kind, ConstraintPool<N>& pool, const SweepContext& context) {
   if constexpr (std::is_same_v<Kernel, TetherKernel>)

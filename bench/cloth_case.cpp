@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "nucleon/shapes.h"
-#include "systems/measures.h"
+#include "systems/diagnostics/measures.h"
 
 namespace nucleon::bench {
 

@@ -1,6 +1,12 @@
 // A pool of one constraint family acting on N particles each, as structure of arrays. Every
-// family (stretch, shear, bend, twist, volume) has this shape; the kernel that gives a family its
-// meaning lives in systems/constraint_kernels.h, so a sweep is one loop for any of them.
+// built-in family has this shape; the kernel that gives a family its meaning lives in
+// systems/solver/constraint_kernels.h, so a sweep is one loop for any of them.
+//
+// A pool is two records: what the user set (ConstraintSettings: particles, rest value,
+// compliances, damping), which only a topology change alters, and what the backends derive from
+// it (ConstraintSolveState: coloring, incidence, Jacobi and vertex scratch, λ), which
+// systems/setup/build_derived_tables.h rebuilds and the sweeps write. The pool inherits both, so
+// a kernel reads pool.rest[c] and pool.lambda[c] alike.
 #pragma once
 
 #include <array>
@@ -8,16 +14,13 @@
 #include <vector>
 
 #include "components/constraint_graph.h"
-#include "nucleon/schedule.h"
 #include "nucleon/types.h"
 
 namespace nucleon {
 
-template <std::size_t N>
-struct ConstraintPool {
-  static constexpr std::size_t kArity = N;
-  std::vector<std::array<Index, N>> particles;  // global particle indices, kernel order
-  std::vector<Real> rest;                       // C's rest value from the object's rest shape
+// What every constraint pool stores besides its particles and rest data, one entry per
+// constraint: the user's parameters.
+struct ConstraintParameters {
   // XPBD compliance α (inverse stiffness; 0 = hard) when C ≥ 0, and when C < 0. Cloth resists
   // stretching but buckles, so stretch gives the two directions their own α; the other families
   // store the same value twice.
@@ -26,31 +29,53 @@ struct ConstraintPool {
   // Stiffness-proportional (Rayleigh) damping time τ in seconds: the constraint force is
   // −(C + τ dC/dt)/α, so τ damps motion along ∇C without touching rigid motion.
   std::vector<Real> damping;
-  std::vector<Real> lambda;  // XPBD multiplier, reset every substep
+};
 
-  // Derived when the topology changes (systems/constraint_graph_build.h).
+template <std::size_t N>
+struct ConstraintSettings : ConstraintParameters {
+  static constexpr std::size_t kArity = N;
+  std::vector<std::array<Index, N>> particles;  // global particle indices, kernel order
+  std::vector<Real> rest;                       // C's rest value from the object's rest shape
+};
+
+// What the backends derive for a pool of any arity.
+struct ConstraintSolveState {
+  std::vector<Real> lambda;  // XPBD multiplier, reset every substep
   ParticleIncidence incidence;
   ConstraintColoring coloring;
-  std::vector<Vec3> correction;  // Jacobi scratch, N per constraint
-  // Jacobi mass splitting: per particle, w_i times the number of this family's constraints on i.
+  std::vector<Vec3> correction;  // Jacobi scratch, arity per constraint
+  // Jacobi mass splitting: per particle, w_i times the number of this pool's constraints on i.
   std::vector<Real> splitInverseMass;
   bool undamped = true;  // no constraint has damping: the batched distance path applies
+};
+
+// What the backends derive for a built-in pool of arity N: the common state, plus the tables of
+// the batched and vertex-centric paths.
+template <std::size_t N>
+struct BuiltinSolveState : ConstraintSolveState {
   // The inverse mass of each constraint's particles, in pool order, for batched kernels that load
   // them with the constraint instead of gathering them per particle.
   std::vector<std::array<Real, N>> endInverseMass;
-  // Vertex-centric Jacobi (systems/jacobi_vertex.h), for two-particle pools whose constraints are
-  // all hard and undamped (`vertexJacobi`): the slot rows, and per particle the move of the
-  // family's last Jacobi sweep, the Chebyshev history (blocks of eight particles as x×8, y×8,
-  // z×8), and per lane of the rows the sweep's multiplier step (scratch). `vertexHistory` says
-  // which history is current: the per-particle moves (the last sweep took the vertex path) or the
-  // correction slots (it took the slot path).
+  // Vertex-centric Jacobi (systems/solver/jacobi_vertex.h), for two-particle pools whose
+  // constraints are all hard and undamped (`vertexJacobi`): the slot rows, and per particle the
+  // move of the family's last Jacobi sweep, the Chebyshev history (blocks of eight particles as
+  // x×8, y×8, z×8), and per lane of the rows the sweep's multiplier step (scratch).
+  // `vertexHistory` says which history is current: the per-particle moves (the last sweep took
+  // the vertex path) or the correction slots (it took the slot path).
   VertexSlotRows vertexRows;
   std::vector<Real> vertexMove;
   std::vector<Real> vertexLaneLambda;
   bool vertexJacobi = false;
   bool vertexHistory = false;
+};
 
-  std::size_t size() const { return particles.size(); }
+template <std::size_t N>
+struct ConstraintPool : ConstraintSettings<N>, BuiltinSolveState<N> {
+  static constexpr std::size_t kArity = N;
+
+  std::size_t size() const { return this->particles.size(); }
+  std::size_t arity() const { return N; }
+  Index particle(std::size_t c, std::size_t k) const { return this->particles[c][k]; }
 
   // Reorders the constraints so that the one at order[k] moves to k. The step stores each pool
   // in coloring order, so that a color is a contiguous range in memory as well.
@@ -59,22 +84,22 @@ struct ConstraintPool {
       auto old = column;
       for (std::size_t k = 0; k < order.size(); ++k) column[k] = old[order[k]];
     };
-    apply(particles);
-    apply(rest);
-    apply(compliance);
-    apply(compressionCompliance);
-    apply(damping);
-    apply(lambda);
+    apply(this->particles);
+    apply(this->rest);
+    apply(this->compliance);
+    apply(this->compressionCompliance);
+    apply(this->damping);
+    apply(this->lambda);
   }
 
   void append(const std::array<Index, N>& p, Real restValue, Real alpha, Real alphaCompression,
               Real dampingTime) {
-    particles.push_back(p);
-    rest.push_back(restValue);
-    compliance.push_back(alpha);
-    compressionCompliance.push_back(alphaCompression);
-    damping.push_back(dampingTime);
-    lambda.push_back(0);
+    this->particles.push_back(p);
+    this->rest.push_back(restValue);
+    this->compliance.push_back(alpha);
+    this->compressionCompliance.push_back(alphaCompression);
+    this->damping.push_back(dampingTime);
+    this->lambda.push_back(0);
   }
 };
 

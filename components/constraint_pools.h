@@ -1,45 +1,63 @@
-// Every constraint pool of a world, one per family and simplex kind.
+// Every constraint pool of a world: one per built-in pool of the family table
+// (NUCLEON_CONSTRAINT_FAMILIES in nucleon/constraint_family.h), then one per family an embedding
+// program registered.
 #pragma once
 
+#include <vector>
+
 #include "components/constraint_pool.h"
+#include "components/user_constraint_pool.h"
+#include "nucleon/constraint_family.h"
 
 namespace nucleon {
 
 struct ConstraintPools {
-  StretchConstraints stretch;  // type 1 on every edge
-  AngleConstraints shear;      // type 2 at the corners of cloth triangles
-  AngleConstraints curveBend;  // type 2 where two rope segments meet  } the "bend" family
-  DihedralConstraints bend;    // type 3 on the hinges of cloth        }
-  DihedralConstraints twist;   // type 3 on four consecutive rope points
-  VolumeConstraints volume;    // tetrahedra of solids
-  TetherConstraints tether;    // free particle to pins of its nearest pin clusters, unilateral
+#define NUCLEON_POOL(member, arity, Kernel, paths) ConstraintPool<arity> member;
+#define NUCLEON_FAMILY_POOLS(enumerator, name, pools) pools
+  NUCLEON_CONSTRAINT_FAMILIES(NUCLEON_FAMILY_POOLS)
+#undef NUCLEON_FAMILY_POOLS
+#undef NUCLEON_POOL
 
+  // Registered families, in registration order: family kBuiltinFamilyCount + i is user[i].
+  std::vector<UserConstraintPool> user;
+
+  std::size_t familyCount() const {
+    return kBuiltinFamilyCount + user.size();
+  }
+
+  // Calls f(pool) for every built-in pool, in table order.
+  template <class F>
+  void forEachBuiltin(F&& f) {
+#define NUCLEON_POOL(member, arity, Kernel, paths) f(member);
+#define NUCLEON_FAMILY_POOLS(enumerator, name, pools) pools
+    NUCLEON_CONSTRAINT_FAMILIES(NUCLEON_FAMILY_POOLS)
+#undef NUCLEON_FAMILY_POOLS
+#undef NUCLEON_POOL
+  }
+
+  // Calls f(pool) for every pool, built-in and registered.
   template <class F>
   void forEach(F&& f) {
-    f(stretch);
-    f(shear);
-    f(curveBend);
-    f(bend);
-    f(twist);
-    f(volume);
-    f(tether);
+    forEachBuiltin(f);
+    for (UserConstraintPool& pool : user) f(pool);
   }
+
   std::size_t count(ConstraintFamily family) const {
+    std::size_t total = 0;
     switch (family) {
-      case ConstraintFamily::Stretch:
-        return stretch.size();
-      case ConstraintFamily::Shear:
-        return shear.size();
-      case ConstraintFamily::Bend:
-        return bend.size() + curveBend.size();
-      case ConstraintFamily::Twist:
-        return twist.size();
-      case ConstraintFamily::Volume:
-        return volume.size();
-      case ConstraintFamily::Tether:
-        return tether.size();
+#define NUCLEON_POOL(member, arity, Kernel, paths) total += member.size();
+#define NUCLEON_FAMILY_POOLS(enumerator, name, pools) \
+  case ConstraintFamily::enumerator:                  \
+    pools break;
+      NUCLEON_CONSTRAINT_FAMILIES(NUCLEON_FAMILY_POOLS)
+#undef NUCLEON_FAMILY_POOLS
+#undef NUCLEON_POOL
+      default: {
+        const std::size_t u = familyIndex(family) - kBuiltinFamilyCount;
+        if (u < user.size()) total = user[u].size();
+      }
     }
-    return 0;
+    return total;
   }
 };
 

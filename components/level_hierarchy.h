@@ -1,7 +1,7 @@
 // Level hierarchy of the multigrid backend: hierarchical position based dynamics (Müller 2008,
 // "Hierarchical Position Based Dynamics"), ARCHITECTURE.md §3.
 //
-// Built by buildLevelHierarchies (systems/build_hierarchy.h) when the topology changes, never
+// Built by buildLevelHierarchies (systems/setup/build_hierarchy.h) when the topology changes, never
 // inside a step. One ObjectHierarchy per object that has edges (cloth, rope, solid; not particle
 // clouds, not colliders), in object order. All particle indices are GLOBAL (into the particle
 // pool), so a sweep reads and writes ParticlePool::p directly.

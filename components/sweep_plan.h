@@ -1,9 +1,8 @@
 // The sweeps of one substep in execution order, derived from the world's schedule and the
-// objects' own schedules (systems/sweep_schedule.h). Rebuilt when objects or the solver settings
-// change, read by the solve stage.
+// objects' own schedules (systems/setup/sweep_schedule.h). Rebuilt when objects or the solver
+// settings change, read by the solve stage.
 #pragma once
 
-#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -21,8 +20,8 @@ struct SweepPlan {
   std::vector<SweepOp> ops;
   // For ops restricted to some objects: one byte per object (1 = its constraints take part).
   std::vector<std::uint8_t> objectRuns;
-  int rounds = 0;  // R: the largest sweep count of any family of any object
-  std::array<int, kConstraintFamilyCount> sweepsOfFamily{};  // ops per family (world schedule)
+  int rounds = 0;                   // R: the largest sweep count of any family of any object
+  std::vector<int> sweepsOfFamily;  // ops per family id (world schedule)
   std::uint64_t projectionsPerSubstep = 0;  // constraint projections the ops perform
 };
 

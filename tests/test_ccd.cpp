@@ -1,6 +1,6 @@
-// Continuous collision detection (systems/ccd.h): no false negative on the public query set with
-// exact ground truth, few false positives, times of impact that are lower bounds and tight on
-// analytic motions, finite conservative answers on degenerate primitives, and the `nucleon ccd`
+// Continuous collision detection (systems/collision/ccd.h): no false negative on the public query
+// set with exact ground truth, few false positives, times of impact that are lower bounds and tight
+// on analytic motions, finite conservative answers on degenerate primitives, and the `nucleon ccd`
 // command.
 #include <array>
 #include <cmath>
@@ -14,8 +14,8 @@
 #include <gtest/gtest.h>
 
 #include "engine/app/cli.h"
-#include "systems/ccd.h"
-#include "systems/primitive_distance.h"
+#include "systems/collision/ccd.h"
+#include "systems/collision/primitive_distance.h"
 
 namespace nucleon {
 namespace {

@@ -11,8 +11,8 @@
 #include "nucleon/scene.h"
 #include "nucleon/shapes.h"
 #include "sim_test_context.h"
-#include "systems/collision_primitives_build.h"
-#include "systems/primitive_distance.h"
+#include "systems/collision/primitive_distance.h"
+#include "systems/setup/build_collision_primitives.h"
 
 using namespace nucleon;
 

@@ -6,7 +6,7 @@
 
 #include "components/simplicial_complex.h"
 #include "nucleon/shapes.h"
-#include "systems/measures.h"
+#include "systems/diagnostics/measures.h"
 
 using namespace nucleon;
 

@@ -11,7 +11,7 @@
 #include "engine/src/world_state.h"
 #include "nucleon/shapes.h"
 #include "sim_test_context.h"
-#include "systems/constraint_graph_build.h"
+#include "systems/setup/build_constraint_graph.h"
 
 using namespace nucleon;
 

@@ -5,7 +5,7 @@
 
 #include <random>
 
-#include "systems/constraint_kernels.h"
+#include "systems/solver/constraint_kernels.h"
 
 using namespace nucleon;
 

@@ -15,9 +15,9 @@
 #include "components/particles.h"
 #include "nucleon/shapes.h"
 #include "nucleon/world.h"
-#include "systems/colored_sweep.h"
-#include "systems/constraint_sweeps.h"
-#include "systems/distance_batch.h"
+#include "systems/solver/colored_sweep.h"
+#include "systems/solver/constraint_sweeps.h"
+#include "systems/solver/distance_batch.h"
 
 namespace nucleon {
 namespace {

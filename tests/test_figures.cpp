@@ -18,7 +18,7 @@
 #include "engine/src/world_state.h"
 #include "nucleon/shapes.h"
 #include "nucleon/world.h"
-#include "systems/measures.h"
+#include "systems/diagnostics/measures.h"
 
 namespace nucleon {
 namespace {

@@ -18,7 +18,7 @@
 #include "nucleon/shapes.h"
 #include "nucleon/world.h"
 #include "sim_test_context.h"
-#include "systems/build_hierarchy.h"
+#include "systems/setup/build_hierarchy.h"
 
 namespace nucleon {
 namespace {

@@ -21,7 +21,7 @@
 #include "nucleon/scene.h"
 #include "nucleon/shapes.h"
 #include "nucleon/world.h"
-#include "systems/triangle_intersections.h"
+#include "systems/diagnostics/triangle_intersections.h"
 
 namespace nucleon {
 namespace {

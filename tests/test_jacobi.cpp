@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "systems/jacobi_chebyshev.h"
+#include "systems/solver/jacobi_chebyshev.h"
 #include "tests/sim_test_context.h"
 
 namespace nucleon {

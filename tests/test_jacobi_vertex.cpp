@@ -1,6 +1,7 @@
-// The vertex-centric Jacobi sweep of hard distance constraints (systems/jacobi_vertex.h) against
-// the slot path it replaces (constraint_sweeps.h): the same plain Jacobi iteration up to float
-// rounding, and with Chebyshev acceleration no worse convergence, from the same deformed state.
+// The vertex-centric Jacobi sweep of hard distance constraints (systems/solver/jacobi_vertex.h)
+// against the slot path it replaces (constraint_sweeps.h): the same plain Jacobi iteration up to
+// float rounding, and with Chebyshev acceleration no worse convergence, from the same deformed
+// state.
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -9,9 +10,9 @@
 #include <tbb/task_arena.h>
 
 #include "engine/src/world_state.h"
-#include "systems/constraint_sweeps.h"
-#include "systems/integrate.h"
-#include "systems/measures.h"
+#include "systems/diagnostics/measures.h"
+#include "systems/dynamics/integrate.h"
+#include "systems/solver/constraint_sweeps.h"
 #include "tests/sim_test_context.h"
 
 namespace nucleon {

@@ -16,7 +16,7 @@
 #include "nucleon/scene.h"
 #include "nucleon/shapes.h"
 #include "sim_test_context.h"
-#include "systems/kinematic_motion.h"
+#include "systems/dynamics/kinematic_motion.h"
 
 namespace nucleon {
 namespace {

@@ -1,7 +1,7 @@
-// The multigrid backend (systems/multigrid_cascade.h): a coarse-to-fine cascade over the level
-// hierarchy before colored Gauss–Seidel fine sweeps. Its point is convergence per unit of work,
-// so the work is counted in constraint projections (StepProfile::projections, which includes the
-// cascade's coarse-edge projections) and the two backends are compared at no more work for
+// The multigrid backend (systems/solver/multigrid_cascade.h): a coarse-to-fine cascade over the
+// level hierarchy before colored Gauss–Seidel fine sweeps. Its point is convergence per unit of
+// work, so the work is counted in constraint projections (StepProfile::projections, which includes
+// the cascade's coarse-edge projections) and the two backends are compared at no more work for
 // multigrid.
 #include <gtest/gtest.h>
 

@@ -6,7 +6,7 @@
 #include "nucleon/scene.h"
 #include "nucleon/shapes.h"
 #include "sim_test_context.h"
-#include "systems/sweep_schedule.h"
+#include "systems/setup/sweep_schedule.h"
 
 using namespace nucleon;
 

@@ -8,7 +8,7 @@
 #include "nucleon/shapes.h"
 #include "nucleon/world.h"
 #include "sim_test_context.h"
-#include "systems/particle_contacts.h"
+#include "systems/collision/particle_contacts.h"
 
 namespace nucleon {
 namespace {

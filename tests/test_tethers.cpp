@@ -20,10 +20,10 @@
 #include "nucleon/shapes.h"
 #include "nucleon/world.h"
 #include "sim_test_context.h"
-#include "systems/build_constraints.h"
-#include "systems/constraint_graph_build.h"
-#include "systems/tether_projection.h"
-#include "systems/tether_sweep.h"
+#include "systems/setup/build_constraint_graph.h"
+#include "systems/setup/build_constraints.h"
+#include "systems/solver/tether_projection.h"
+#include "systems/solver/tether_sweep.h"
 
 using namespace nucleon;
 

@@ -10,7 +10,7 @@
 #include <sstream>
 
 #include "engine/app/cli_args.h"
-#include "systems/ccd.h"
+#include "systems/collision/ccd.h"
 
 namespace nucleon {
 

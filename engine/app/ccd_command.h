@@ -1,6 +1,7 @@
-// `nucleon ccd`: runs the continuous collision detection narrow phase (systems/ccd.h) over a file
-// of vertex–face and edge–edge queries, reports hits and time per query, writes the answers, and
-// counts false negatives and false positives against the truth column when the file has one.
+// `nucleon ccd`: runs the continuous collision detection narrow phase (systems/collision/ccd.h)
+// over a file of vertex–face and edge–edge queries, reports hits and time per query, writes the
+// answers, and counts false negatives and false positives against the truth column when the file
+// has one.
 #pragma once
 
 #include <iosfwd>

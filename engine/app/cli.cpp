@@ -225,13 +225,12 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
     strainByFamily["tether"] = {{"max_violation", m.maxTetherViolation}};
 
   nlohmann::json constraints = nlohmann::json::object();
-  for (std::size_t f = 0; f < kConstraintFamilyCount; ++f)
-    constraints[toString(static_cast<ConstraintFamily>(f))] =
-        world.constraintCount(static_cast<ConstraintFamily>(f));
   nlohmann::json sweeps = nlohmann::json::object();  // per substep, from the schedule
-  for (std::size_t f = 0; f < kConstraintFamilyCount; ++f)
-    sweeps[toString(static_cast<ConstraintFamily>(f))] =
-        world.sweepsPerSubstep(static_cast<ConstraintFamily>(f));
+  for (std::size_t f = 0; f < world.familyCount(); ++f) {
+    const auto family = static_cast<ConstraintFamily>(f);
+    constraints[world.familyName(family)] = world.constraintCount(family);
+    sweeps[world.familyName(family)] = world.sweepsPerSubstep(family);
+  }
   nlohmann::json stats = {
       {"scene", scene.name},
       {"frames", scene.frames},

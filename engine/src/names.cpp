@@ -47,27 +47,21 @@ bool parseSolverKind(const std::string& name, SolverKind& out) {
   return false;
 }
 
+namespace {
+constexpr const char* kFamilyNames[] = {
+#define NUCLEON_FAMILY_NAME(enumerator, name, pools) name,
+    NUCLEON_CONSTRAINT_FAMILIES(NUCLEON_FAMILY_NAME)
+#undef NUCLEON_FAMILY_NAME
+};
+}  // namespace
+
 const char* toString(ConstraintFamily family) {
-  switch (family) {
-    case ConstraintFamily::Stretch:
-      return "stretch";
-    case ConstraintFamily::Shear:
-      return "shear";
-    case ConstraintFamily::Bend:
-      return "bend";
-    case ConstraintFamily::Twist:
-      return "twist";
-    case ConstraintFamily::Volume:
-      return "volume";
-    case ConstraintFamily::Tether:
-      return "tether";
-  }
-  return "?";
+  return isBuiltin(family) ? kFamilyNames[familyIndex(family)] : "user";
 }
 
 bool parseConstraintFamily(const std::string& name, ConstraintFamily& out) {
-  for (std::size_t f = 0; f < kConstraintFamilyCount; ++f)
-    if (name == toString(static_cast<ConstraintFamily>(f))) {
+  for (std::size_t f = 0; f < kBuiltinFamilyCount; ++f)
+    if (name == kFamilyNames[f]) {
       out = static_cast<ConstraintFamily>(f);
       return true;
     }

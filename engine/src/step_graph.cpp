@@ -3,13 +3,13 @@
 #include <chrono>
 
 #include "engine/src/world_state.h"
-#include "systems/broad_phase.h"
-#include "systems/integrate.h"
-#include "systems/kinematic_motion.h"
-#include "systems/multigrid_cascade.h"
-#include "systems/particle_contacts.h"
-#include "systems/primitive_contacts.h"
-#include "systems/solve_constraints.h"
+#include "systems/collision/broad_phase.h"
+#include "systems/collision/particle_contacts.h"
+#include "systems/collision/primitive_contacts.h"
+#include "systems/dynamics/integrate.h"
+#include "systems/dynamics/kinematic_motion.h"
+#include "systems/solver/multigrid_cascade.h"
+#include "systems/solver/solve_constraints.h"
 
 namespace nucleon {
 namespace {
@@ -196,10 +196,11 @@ void StepGraph::runStage(int stage) {
           if (every > 0 && roundsDone % every == 0) c.run();
         };
         const bool repeats = s.solver.kind == SolverKind::Multigrid && s.solver.cascadeEvery > 0;
-        contactSeconds = solveConstraints(
-            s.constraints, s.particles, s.plan, s.contacts, s.colliders, s.primitiveContacts,
-            fineSweepKind(s.solver), h_, s.solver.relaxation, s.solver.chebyshevRho,
-            repeats ? +repeatCascade : nullptr, &cascade, s.solver.sheetRelaxation);
+        SolveSettings settings = solveSettingsOf(s.solver);
+        settings.betweenRounds = repeats ? +repeatCascade : nullptr;
+        settings.hookContext = &cascade;
+        contactSeconds = solveConstraints(s.constraints, s.particles, s.plan, s.contacts,
+                                          s.colliders, s.primitiveContacts, h_, settings);
         cascadeProjections = cascade.projections;
         colliderRedetections = cascade.colliderRedetections;
         if (s.colliders.size() > 0)

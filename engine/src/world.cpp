@@ -11,15 +11,15 @@
 
 #include "engine/src/step_graph.h"
 #include "engine/src/world_state.h"
-#include "systems/build_constraints.h"
-#include "systems/build_hierarchy.h"
-#include "systems/collision_primitives_build.h"
-#include "systems/derived_tables.h"
-#include "systems/kinematic_motion.h"
-#include "systems/measures.h"
-#include "systems/particle_contacts.h"
-#include "systems/sweep_schedule.h"
-#include "systems/triangle_intersections.h"
+#include "systems/collision/particle_contacts.h"
+#include "systems/diagnostics/measures.h"
+#include "systems/diagnostics/triangle_intersections.h"
+#include "systems/dynamics/kinematic_motion.h"
+#include "systems/setup/build_collision_primitives.h"
+#include "systems/setup/build_constraints.h"
+#include "systems/setup/build_derived_tables.h"
+#include "systems/setup/build_hierarchy.h"
+#include "systems/setup/sweep_schedule.h"
 
 namespace nucleon {
 
@@ -35,7 +35,7 @@ bool finite(const Vec3& v) {
   return v.allFinite();
 }
 
-void validateCommon(const ObjectDef& def, const std::string& what) {
+void validateCommon(const ObjectDef& def, const std::string& what, std::size_t familyCount) {
   require(!def.vertices.empty(), what + ": no vertices");
   for (std::size_t i = 0; i < def.vertices.size(); ++i)
     require(finite(def.vertices[i]),
@@ -56,7 +56,7 @@ void validateCommon(const ObjectDef& def, const std::string& what) {
           what + ": twist compliance must be finite and non-negative");
   require(std::isfinite(m.damping) && m.damping >= 0,
           what + ": damping must be finite and non-negative");
-  validateSchedule(def.schedule, what + " schedule");
+  validateSchedule(def.schedule, what + " schedule", familyCount);
   require(std::isfinite(m.thickness) && m.thickness >= 0 && m.thickness < 1e3,
           what + ": thickness must be finite and non-negative");
   require(std::isfinite(m.friction) && m.friction >= 0 && std::isfinite(m.staticFriction) &&
@@ -261,7 +261,7 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
   const std::string what =
       std::string(toString(kind)) + " '" +
       (def.name.empty() ? "object" + std::to_string(s.objects.size()) : def.name) + "'";
-  validateCommon(def, what);
+  validateCommon(def, what, s.constraints.familyCount());
   validateMotion(def, kind, what);
   validatePinGroups(def, kind, what);
   const std::size_t n = def.vertices.size();
@@ -455,7 +455,7 @@ void World::setSolver(const SolverSettings& settings) {
   require(std::isfinite(settings.chebyshevRho) && settings.chebyshevRho >= 0 &&
               settings.chebyshevRho <= Real(0.9999),
           "chebyshev_rho must be in [0, 0.9999]");
-  validateSchedule(settings.schedule, "solver schedule");
+  validateSchedule(settings.schedule, "solver schedule", impl_->state.constraints.familyCount());
   require(settings.sweepsPerLevel.size() <= 64, "at most 64 sweeps-per-level values");
   for (int sweeps : settings.sweepsPerLevel)
     require(sweeps >= 0 && sweeps <= 1000, "sweeps per level must be in [0, 1000]");
@@ -614,8 +614,88 @@ std::size_t World::constraintCount(ConstraintFamily family) const {
 
 int World::sweepsPerSubstep(ConstraintFamily family) const {
   const WorldState& s = impl_->state;
-  const SweepPlan plan = s.topologyDirty ? planSweeps(s.solver, s.objects) : s.plan;
-  return plan.sweepsOfFamily[static_cast<std::size_t>(family)];
+  const SweepPlan plan =
+      s.topologyDirty ? planSweeps(s.solver, s.objects, s.constraints.familyCount()) : s.plan;
+  const std::size_t f = familyIndex(family);
+  return f < plan.sweepsOfFamily.size() ? plan.sweepsOfFamily[f] : 0;
+}
+
+std::size_t World::familyCount() const {
+  return impl_->state.constraints.familyCount();
+}
+
+std::string World::familyName(ConstraintFamily family) const {
+  const ConstraintPools& pools = impl_->state.constraints;
+  if (isBuiltin(family)) return toString(family);
+  const std::size_t u = familyIndex(family) - kBuiltinFamilyCount;
+  require(u < pools.user.size(), "familyName: no family with id " +
+                                     std::to_string(familyIndex(family)) + " in this world");
+  return pools.user[u].family.name;
+}
+
+bool World::findConstraintFamily(const std::string& name, ConstraintFamily& out) const {
+  if (parseConstraintFamily(name, out)) return true;
+  const ConstraintPools& pools = impl_->state.constraints;
+  for (std::size_t u = 0; u < pools.user.size(); ++u)
+    if (pools.user[u].family.name == name) {
+      out = static_cast<ConstraintFamily>(kBuiltinFamilyCount + u);
+      return true;
+    }
+  return false;
+}
+
+ConstraintFamily World::registerConstraintFamily(const UserConstraintFamilyDef& def) {
+  ConstraintPools& pools = impl_->state.constraints;
+  const std::string what = "constraint family '" + def.name + "'";
+  require(!def.name.empty(), "constraint family: the name is empty");
+  ConstraintFamily existing{};
+  require(!findConstraintFamily(def.name, existing), what + ": the name is taken");
+  require(def.arity >= 1 && def.arity <= kMaxUserConstraintArity,
+          what + ": arity must be in [1, " + std::to_string(kMaxUserConstraintArity) + "]");
+  require(def.restSize <= 64, what + ": at most 64 rest values per constraint");
+  require(def.evaluate != nullptr, what + ": no evaluate function");
+  require(pools.familyCount() < 0xffff, what + ": too many families");
+  UserConstraintPool pool;
+  pool.family = def;
+  pools.user.push_back(std::move(pool));
+  impl_->state.topologyDirty = true;
+  return static_cast<ConstraintFamily>(pools.familyCount() - 1);
+}
+
+void World::addConstraint(ObjectId object, ConstraintFamily family,
+                          std::span<const Index> particles, std::span<const Real> rest,
+                          const ConstraintCompliance& compliance) {
+  WorldState& s = impl_->state;
+  const ObjectRecord& o = lookup(*impl_, object);
+  const std::size_t u = familyIndex(family) - kBuiltinFamilyCount;
+  require(!isBuiltin(family) && u < s.constraints.user.size(),
+          "addConstraint: the family is not one registered with this world");
+  UserConstraintPool& pool = s.constraints.user[u];
+  const std::string what = "addConstraint: " + pool.family.name;
+  require(particles.size() == pool.family.arity,
+          what + " takes " + std::to_string(pool.family.arity) + " particles, got " +
+              std::to_string(particles.size()));
+  require(rest.size() == pool.family.restSize,
+          what + " takes " + std::to_string(pool.family.restSize) + " rest values, got " +
+              std::to_string(rest.size()));
+  for (Index v : particles)
+    require(v < o.particleCount,
+            what + ": particle " + std::to_string(v) + " is not a vertex of '" + o.name + "'");
+  for (Real r : rest) require(std::isfinite(r), what + ": a rest value is not finite");
+  const Real below = compliance.compressionCompliance < 0 ? compliance.compliance
+                                                          : compliance.compressionCompliance;
+  require(std::isfinite(compliance.compliance) && compliance.compliance >= 0 &&
+              std::isfinite(below) && std::isfinite(compliance.damping) && compliance.damping >= 0,
+          what + ": compliance and damping must be finite and non-negative");
+  for (Index v : particles) pool.particles.push_back(o.firstParticle + v);
+  pool.rest.insert(pool.rest.end(), rest.begin(), rest.end());
+  pool.compliance.push_back(compliance.compliance);
+  pool.compressionCompliance.push_back(below);
+  pool.damping.push_back(compliance.damping);
+  pool.lambda.push_back(0);
+  // A pool in color order takes the new constraint at its end: the derived tables color it anew.
+  pool.coloring.inPlace = false;
+  s.topologyDirty = true;
 }
 
 Measures World::measure() const {

@@ -1,0 +1,64 @@
+// Which backend solves the constraints, and how many substeps and sweeps it takes.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "nucleon/schedule.h"
+#include "nucleon/types.h"
+
+namespace nucleon {
+
+enum class SolverKind { GaussSeidel, Jacobi, ColoredGaussSeidel, Multigrid };
+const char* toString(SolverKind kind);
+// Parses "gauss-seidel", "jacobi", "colored-gs", "multigrid"; returns false on anything else.
+bool parseSolverKind(const std::string& name, SolverKind& out);
+
+struct SolverSettings {
+  SolverKind kind = SolverKind::GaussSeidel;
+  int iterations = 10;  // sweeps per substep of every family, when `schedule` is empty
+  int substeps = 1;     // substeps per step(dt)
+  // Jacobi relaxation γ in (0, 2): the plain step moves each particle by γ times the average of
+  // its constraints' corrections, before the Chebyshev acceleration scales it (ARCHITECTURE.md
+  // §3, jacobi). Ignored by the Gauss–Seidel backends.
+  Real relaxation = 1;
+  // Jacobi's γ in (0, 2) for the particles of an inextensible sheet or solid: those with at
+  // least three constraints in a pool of hard, undamped distance constraints, which the
+  // vertex-centric sweep takes (ARCHITECTURE.md §3, jacobi). Averaging n_i ≥ 3 corrections in
+  // different directions moves a particle a fraction of what an ordered sweep would, and
+  // over-relaxing recovers part of it (successive over-relaxation of averaged constraints,
+  // Macklin et al. 2014, "Unified Particle Physics for Real-Time Applications"). The particles
+  // of chains keep `relaxation`: over-relaxed, a swinging rope gains energy.
+  Real sheetRelaxation = Real(1.7);
+  // Jacobi's Chebyshev acceleration: the estimate ρ ∈ [0, 0.9999] of the plain iteration's
+  // spectral radius (0: no acceleration). Higher converges faster on a hanging cloth and
+  // extrapolates harder through contacts (ARCHITECTURE.md §3, jacobi). Ignored by the others.
+  Real chebyshevRho = Real(0.98);
+  // Multigrid: sweeps of each coarse level in the coarse-to-fine cascade that precedes the fine
+  // sweeps of every substep (ARCHITECTURE.md §3), level 1 (the finest coarse level) first; a
+  // level beyond the list takes its last value. Few sweeps where a level is large, many where
+  // it is small: a level has a quarter of the particles of the one below, so sixteen sweeps of
+  // level 3 cost what one of level 1 does. Empty, or 0 for level 1: no cascade.
+  std::vector<int> sweepsPerLevel = {1, 4, 16, 32};
+  // Multigrid: the cascade also runs again after every `cascadeEvery` fine sweep rounds (0: only
+  // before the first), each time from the positions the fine sweeps left.
+  int cascadeEvery = 0;
+  // Multigrid: the backend of its fine sweeps, colored-gs (default), jacobi or gauss-seidel (not
+  // multigrid). The cascade is the same for all three (ARCHITECTURE.md §3).
+  SolverKind smoother = SolverKind::ColoredGaussSeidel;
+  // False: every constraint pool takes its backend's generic sweep instead of the optimised
+  // paths the family table gives it (AVX2 distance batches, the vertex-centric Jacobi sweep, the
+  // tethers' layered sweep), whose results equal the generic sweep's up to rounding. A reference
+  // for testing those paths and registered families against the built-in ones; slower.
+  bool optimizedPaths = true;
+  // Per-family sweep counts and order; empty = every family `iterations` times, in the order
+  // stretch, tether, shear, bend, twist, volume.
+  Schedule schedule;
+};
+
+// The backend of the constraint sweeps: multigrid's smoother under multigrid, else the backend.
+inline SolverKind fineSweepKind(const SolverSettings& settings) {
+  return settings.kind == SolverKind::Multigrid ? settings.smoother : settings.kind;
+}
+
+}  // namespace nucleon

@@ -1,0 +1,91 @@
+// What a world reports about itself: the per-stage profile and the quality measures.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace nucleon {
+
+// Wall-clock seconds each stage of step() has taken since the world was created or the profile
+// was last reset (the engine's own profile). `solve` excludes the contact projections, which are
+// `collisions` (with contact detection); `projections` counts constraint projections in the solve
+// stage; `animate` is the animated colliders' two stages (posing them before predict, placing
+// them on their track after update); `broadPhase` and `narrowPhase` are the collision detection
+// between primitives (BVH and candidate pairs; primitive contacts), while `collisions` holds
+// collider contacts, the projection of every contact, friction, the crossing fail-safe and
+// restitution.
+struct StepProfile {
+  double forces = 0;
+  double animate = 0;
+  double predict = 0;
+  double solve = 0;
+  double collisions = 0;
+  double broadPhase = 0;
+  double narrowPhase = 0;
+  double update = 0;
+  std::uint64_t steps = 0;
+  std::uint64_t substeps = 0;
+  std::uint64_t projections = 0;
+};
+
+// Repairs the step made to keep the state usable, counted since the world was created. Each one
+// means that the solver did not resolve something it should have (or that the input was bad); a
+// healthy run has none.
+struct Recoveries {
+  // Particles whose new position or velocity was not finite: they kept their position at the
+  // start of the substep and lost their velocity.
+  std::uint64_t nonFinite = 0;
+  // Free particles that ended a solve inside a collider without a contact (they moved farther
+  // than the contact pool's reach): pushed out to the surface.
+  std::uint64_t missedContacts = 0;
+  std::uint64_t firstStep = 0;  // 1-based step of the first repair; 0 if there was none
+  std::uint64_t total() const { return nonFinite + missedContacts; }
+};
+
+// What the collision stages did since the world was created: pairs and contacts summed over
+// substeps, the displacement bound and the crossing fail-safe's work (ARCHITECTURE.md §4)
+// (their time is StepProfile's broadPhase, narrowPhase and collisions).
+struct CollisionReport {
+  std::uint64_t broadPhases = 0;          // broad-phase runs: one per step, plus the refreshes
+  std::uint64_t broadPhaseRefreshes = 0;  // runs within a step: a prediction left its bounds
+  std::uint64_t solveRedetections = 0;    // runs after a solve that left the bounds
+  // Collider contact pools refilled after the multigrid cascade had carried a particle without
+  // a contact within a collider's reach (particle_contacts.h, detectContacts).
+  std::uint64_t colliderRedetections = 0;
+  std::uint64_t candidatePairs = 0;     // broad-phase pairs, summed over substeps
+  std::uint64_t contacts = 0;           // primitive contacts made, summed over substeps
+  std::uint64_t clampedParticles = 0;   // particles held within their broad-phase bounds
+  std::uint64_t crossings = 0;          // crossing pairs the fail-safe stopped
+  std::uint64_t stoppedParticles = 0;   // particle positions the fail-safe reset
+  std::uint64_t unresolvedPairs = 0;    // pairs still crossing at the fail-safe's round limit
+  std::uint64_t firstCrossingStep = 0;  // 1-based step of the first fail-safe action; 0 if none
+};
+
+// Quality measures of the current state (ARCHITECTURE.md §6).
+struct Measures {
+  double maxStrain = 0;   // max |L/L0 − 1| over stretch constraints
+  double meanStrain = 0;  // mean of the same
+  // 99th percentile of the same (nearest rank: the smallest value that at least 99% of the
+  // constraints do not exceed); unlike the max, one bad edge does not decide it.
+  double strainP99 = 0;
+  // The two signs of the strain apart: the largest L/L0 − 1 and the largest 1 − L/L0, each 0
+  // when no constraint is longer (shorter) than at rest. Cloth resists stretch and buckles under
+  // compression, so the two mean different things.
+  double maxStretch = 0;
+  double maxCompression = 0;
+  // Largest (d − d_rest)/d_rest over the tethers (a tether only limits from above); 0 when there
+  // are none or none is violated.
+  double maxTetherViolation = 0;
+  double kineticEnergy = 0;
+  double potentialEnergy = 0;  // −m g·x summed over free particles
+  std::size_t nanCount = 0;    // non-finite position or velocity components now
+  double minHeight = 0;        // lowest particle coordinate along −gravity (y if gravity is 0)
+  double volumeRatio = -1;     // current / rest volume of closed objects; −1 if there are none
+  std::size_t contacts = 0;    // particles touching the ground plane or a sphere collider
+  // Pairs of surface triangles (cloth, solid boundary and collider triangles, of all objects
+  // together) that share no vertex and intersect, touching included; decided exactly
+  // (systems/diagnostics/triangle_intersections.h). A state free of interpenetration has 0.
+  std::size_t intersections = 0;
+};
+
+}  // namespace nucleon

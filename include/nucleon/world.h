@@ -1,0 +1,142 @@
+// The public entry point: a World holds every object of a simulation and steps it.
+//
+//   nucleon::World world;
+//   nucleon::ClothDef cloth = nucleon::gridCloth({...});
+//   cloth.pins = {0, 63};
+//   auto id = world.addCloth(cloth);
+//   for (int frame = 0; frame < 120; ++frame) world.step(1.0 / 60);
+//   std::span<const nucleon::Vec3> x = world.positions(id);  // a view into the pool, no copy
+//
+// Threading: step() runs its systems as a oneTBB flow graph inside the world's own task arena
+// (setThreads, default: all cores). A World is not itself thread-safe: call it from one thread.
+#pragma once
+
+#include <array>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "nucleon/colliders.h"
+#include "nucleon/errors.h"
+#include "nucleon/material.h"
+#include "nucleon/object_def.h"
+#include "nucleon/schedule.h"
+#include "nucleon/solver_settings.h"
+#include "nucleon/statistics.h"
+#include "nucleon/types.h"
+#include "nucleon/user_constraint.h"
+
+namespace nucleon {
+
+class World {
+ public:
+  World();
+  ~World();
+  World(World&&) noexcept;
+  World& operator=(World&&) noexcept;
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+
+  // Each add* validates the definition and throws std::invalid_argument (or MeshError, derived
+  // from std::runtime_error) with a message naming the problem; the world is unchanged then.
+  ObjectId addCloth(const ObjectDef& def);      // triangles; stretch on every edge
+  ObjectId addRope(const ObjectDef& def);       // edges; stretch on every edge
+  ObjectId addSolid(const ObjectDef& def);      // tets; stretch on every edge
+  ObjectId addParticles(const ObjectDef& def);  // points only
+  ObjectId addCollider(const ObjectDef& def);   // triangles; static or kinematic (never moved by
+                                                // the solver; moves with def.velocity or is
+                                                // animated by def.motion)
+
+  // The positions (one per vertex of the collider, in its vertex order) a collider reaches at the
+  // end of the next step; it moves to them in a straight line, evenly over the step's substeps,
+  // and then holds still until it is given new targets. For colliders driven from outside
+  // (animation data, another program); it replaces the collider's constant velocity. Throws
+  // std::invalid_argument for an id that is not a collider, a collider animated by a motion, a
+  // count other than the collider's vertex count or a non-finite position.
+  void setColliderTargets(ObjectId id, std::span<const Vec3> positions);
+
+  void setGravity(const Vec3& g);
+  Vec3 gravity() const;
+  void setGround(const GroundPlane& ground);  // throws std::invalid_argument on non-finite values
+  const GroundPlane& ground() const;
+  // Adds a static sphere collider; throws std::invalid_argument on non-finite values or a
+  // radius that is not positive.
+  void addSphereCollider(const SphereCollider& sphere);
+  std::span<const SphereCollider> sphereColliders() const;
+  // Adds a static plane of any orientation; throws std::invalid_argument on non-finite values or
+  // a zero normal.
+  void addPlaneCollider(const PlaneCollider& plane);
+  std::span<const PlaneCollider> planeColliders() const;
+  void setSolver(const SolverSettings& settings);
+  const SolverSettings& solver() const;
+  // Worker threads for step(); 0 = all cores. Results of the Gauss–Seidel solver do not depend on
+  // it.
+  void setThreads(int threads);
+  int threads() const;
+
+  // Advances by dt seconds in solver().substeps substeps. dt must be finite and in (0, 1] s;
+  // anything else throws std::invalid_argument and leaves the state untouched.
+  void step(double dt);
+  // Simulated seconds since the world was created: the time motions' keyframes refer to.
+  double time() const;
+
+  std::size_t particleCount() const;
+  std::size_t objectCount() const;
+  std::span<const Vec3> positions() const;  // all particles, a view into the pool
+  std::span<const Vec3> velocities() const;
+  std::span<const Real> inverseMasses() const;
+  std::span<const Vec3> positions(ObjectId id) const;  // one object's particles
+  std::string name(ObjectId id) const;
+  ObjectKind kind(ObjectId id) const;
+  ObjectId objectAt(std::size_t index) const;
+  // Surface triangles of an object in its local vertex indices: a cloth's or collider's triangles,
+  // a solid's boundary triangles; empty for ropes and particles.
+  std::span<const std::array<Index, 3>> surfaceTriangles(ObjectId id) const;
+  std::span<const std::array<Index, 2>> curveEdges(ObjectId id) const;  // a rope's segments
+  Real thickness(ObjectId id) const;
+
+  std::size_t constraintCount(ConstraintFamily family) const;
+
+  // Constraint families of your own (nucleon/user_constraint.h). Registering validates the
+  // definition and throws std::invalid_argument on a bad one (empty or taken name, arity outside
+  // [1, kMaxUserConstraintArity], no evaluate function); the family is then swept by every
+  // backend, `iterations` times per substep unless a schedule names it. addConstraint adds one
+  // constraint on `particles` (the object's local vertex indices, arity of them) with
+  // `rest` (restSize values); it throws std::invalid_argument on a wrong count, an index out of
+  // the object or a non-finite value. A constraint belongs to the object for per-object
+  // schedules.
+  ConstraintFamily registerConstraintFamily(const UserConstraintFamilyDef& def);
+  void addConstraint(ObjectId object, ConstraintFamily family, std::span<const Index> particles,
+                     std::span<const Real> rest, const ConstraintCompliance& compliance = {});
+  // The built-in families and the registered ones: ids 0 … familyCount() − 1.
+  std::size_t familyCount() const;
+  std::string familyName(ConstraintFamily family) const;
+  // A family by its schedule name, built-in or registered; false if there is none.
+  bool findConstraintFamily(const std::string& name, ConstraintFamily& out) const;
+  // Sweeps of a family in each substep under the current schedule (most of any object's).
+  int sweepsPerSubstep(ConstraintFamily family) const;
+  Measures measure() const;
+  // Repairs the steps have made since the world was created (non-finite resets, particles pushed
+  // out of colliders they should never have entered): zero in a healthy run.
+  const Recoveries& recoveries() const;
+  // Collisions between objects' primitives (vertices, edges, faces; every object collides with
+  // every other and with itself unless its material or excludeCollisions says otherwise): what
+  // the collision stages did since the world was created.
+  const CollisionReport& collisionReport() const;
+  // The two objects (the same one twice: its self-collision) never collide with each other.
+  void excludeCollisions(ObjectId a, ObjectId b);
+  const StepProfile& profile() const;
+  void resetProfile();
+  // 64-bit FNV-1a hash of every particle's position and velocity bytes.
+  std::uint64_t stateHash() const;
+
+  struct Impl;
+  Impl& impl() { return *impl_; }  // for systems and tests inside the library's own tree
+  const Impl& impl() const { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace nucleon

@@ -1,0 +1,222 @@
+#include "systems/collision/particle_contacts.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/parallel_scan.h>
+
+namespace nucleon {
+namespace {
+
+constexpr std::size_t kParticleGrain = 4096;
+constexpr std::size_t kContactGrain = 512;
+
+// Signed gap C = distance to the surface − thickness (negative: inside) and the outward normal.
+struct SurfacePoint {
+  Real gap;
+  Vec3 normal;
+};
+
+inline SurfacePoint surfaceAt(const ColliderPool& colliders, std::size_t k, const Vec3& y) {
+  switch (colliders.shape[k]) {
+    case ColliderShape::Plane:
+      return {colliders.normal[k].dot(y - colliders.point[k]) - colliders.thickness[k],
+              colliders.normal[k]};
+    case ColliderShape::Sphere: {
+      const Vec3 offset = y - colliders.point[k];
+      const Real distance = offset.norm();
+      // At the centre the normal is undefined: any direction is a valid exit, and up is the one
+      // a resting object expects.
+      const Vec3 normal = distance > Real(1e-12) ? Vec3(offset / distance) : Vec3(0, 1, 0);
+      return {distance - colliders.radius[k] - colliders.thickness[k], normal};
+    }
+  }
+  return {1, Vec3(0, 1, 0)};
+}
+
+// Whether particle i, moving from x to x + h v, may reach collider k's contact surface in this
+// substep: its motion plus kContactReach, from either end.
+inline bool inReach(const ColliderPool& colliders, std::size_t k, const Vec3& x,
+                    const Vec3& predicted) {
+  const Real reach = (predicted - x).norm() + kContactReach;
+  return std::min(surfaceAt(colliders, k, x).gap, surfaceAt(colliders, k, predicted).gap) < reach;
+}
+
+// One contact: push out along the normal (C = gap ≥ 0, a unilateral constraint whose particle
+// has the collider as an immovable partner, so Δλ = −C), then friction over the substep.
+inline void projectContact(ContactPool& contacts, const ColliderPool& colliders,
+                           ParticlePool& particles, std::size_t c) {
+  const Index i = contacts.particle[c];
+  const Index k = contacts.collider[c];
+  Vec3& p = particles.p[i];
+  const SurfacePoint s = surfaceAt(colliders, k, p);
+  contacts.normal[c] = s.normal;
+  contacts.depth[c] = -s.gap;
+  if (s.gap < 0) {
+    p -= s.gap * s.normal;
+    contacts.lambda[c] -= s.gap;
+  }
+  const Real lambda = contacts.lambda[c];
+  if (lambda <= 0) return;  // no normal impulse this substep, so no friction
+  const Vec3 motion = p - particles.x[i];
+  const Vec3 tangential = motion - s.normal * s.normal.dot(motion);
+  // The tangential motion of the substep had friction not acted: what it has removed so far is
+  // added back, so that the Coulomb bound applies to the whole substep once, however many
+  // rounds project this contact.
+  const Vec3 unopposed = tangential + contacts.friction[c];
+  const Real length = unopposed.norm();
+  Vec3 removed = unopposed;
+  if (length > colliders.staticFriction[k] * lambda)
+    removed *= std::min(Real(1), colliders.friction[k] * lambda / length);
+  // Only the tangential part of the change is applied: on a curved collider F was taken about
+  // earlier normals, and a step along the tangent plane never re-enters a convex surface.
+  Vec3 change = removed - contacts.friction[c];
+  change -= s.normal * s.normal.dot(change);
+  p -= change;
+  contacts.friction[c] += change;
+}
+
+}  // namespace
+
+void detectContacts(ContactPool& contacts, const ColliderPool& colliders,
+                    const ParticlePool& particles, Real h, std::span<const Vec3> reached) {
+  auto touches = [&](std::size_t i, std::size_t k, const Vec3& predicted) {
+    return inReach(colliders, k, particles.x[i], predicted) ||
+           (!reached.empty() && inReach(colliders, k, particles.x[i], reached[i]));
+  };
+  const std::size_t n = particles.size();
+  contacts.runStart.resize(n + 1);
+  if (colliders.size() == 0) {
+    std::fill(contacts.runStart.begin(), contacts.runStart.end(), Index(0));
+    contacts.resize(0);
+    return;
+  }
+  // Pass 1: contacts per particle. Same prediction as predictPositions, bit for bit.
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        Index count = 0;
+                        if (particles.w[i] != 0) {
+                          const Vec3 predicted = particles.x[i] + h * particles.v[i];
+                          for (std::size_t k = 0; k < colliders.size(); ++k)
+                            count += touches(i, k, predicted);
+                        }
+                        contacts.runStart[i] = count;
+                      }
+                    });
+  // Exclusive scan: where each particle's run starts, so that the pool is in particle order.
+  // Integer sums: the parallel scan gives the same offsets for any partitioning.
+  const Index total = tbb::parallel_scan(
+      tbb::blocked_range<std::size_t>(0, n, kParticleGrain), Index(0),
+      [&](const tbb::blocked_range<std::size_t>& r, Index sum, bool final) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Index count = contacts.runStart[i];
+          if (final) contacts.runStart[i] = sum;
+          sum += count;
+        }
+        return sum;
+      },
+      std::plus<>());
+  contacts.runStart[n] = total;
+  contacts.resize(total);
+  // Pass 2: fill the runs.
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        Index c = contacts.runStart[i];
+                        if (c == contacts.runStart[i + 1]) continue;
+                        const Vec3 predicted = particles.x[i] + h * particles.v[i];
+                        for (std::size_t k = 0; k < colliders.size(); ++k) {
+                          if (!touches(i, k, predicted)) continue;
+                          const SurfacePoint s = surfaceAt(colliders, k, predicted);
+                          contacts.particle[c] = static_cast<Index>(i);
+                          contacts.collider[c] = static_cast<Index>(k);
+                          contacts.normal[c] = s.normal;
+                          contacts.depth[c] = -s.gap;
+                          contacts.lambda[c] = 0;
+                          contacts.friction[c] = Vec3::Zero();
+                          ++c;
+                        }
+                      }
+                    });
+}
+
+void projectContacts(ContactPool& contacts, const ColliderPool& colliders, ParticlePool& particles,
+                     SolverKind kind) {
+  const std::size_t count = contacts.size();
+  if (count == 0) return;
+  if (kind == SolverKind::GaussSeidel) {
+    for (std::size_t c = 0; c < count; ++c) projectContact(contacts, colliders, particles, c);
+    return;
+  }
+  // A task owns the runs that start in its range (finishing a run past the range's end), so each
+  // particle is written by one task and its contacts go in pool order.
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, count, kContactGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t c = r.begin(); c != r.end(); ++c) {
+          if (c > 0 && contacts.particle[c - 1] == contacts.particle[c]) continue;
+          std::size_t last = c;
+          while (last + 1 < count && contacts.particle[last + 1] == contacts.particle[c]) ++last;
+          for (std::size_t d = c; d <= last; ++d) projectContact(contacts, colliders, particles, d);
+        }
+      });
+}
+
+bool contactsMissing(const ContactPool& contacts, const ColliderPool& colliders,
+                     const ParticlePool& particles) {
+  if (colliders.size() == 0) return false;
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, particles.size(), kParticleGrain), false,
+      [&](const tbb::blocked_range<std::size_t>& r, bool missing) {
+        for (std::size_t i = r.begin(); i != r.end() && !missing; ++i) {
+          if (particles.w[i] == 0 || contacts.runStart[i] != contacts.runStart[i + 1]) continue;
+          for (std::size_t k = 0; k < colliders.size() && !missing; ++k)
+            missing = inReach(colliders, k, particles.x[i], particles.p[i]);
+        }
+        return missing;
+      },
+      [](bool a, bool b) { return a || b; });
+}
+
+std::size_t resolveMissedContacts(const ContactPool& contacts, const ColliderPool& colliders,
+                                  ParticlePool& particles) {
+  if (colliders.size() == 0) return 0;
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, particles.size(), kParticleGrain), std::size_t{0},
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t repaired) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          if (particles.w[i] == 0 || contacts.runStart[i] != contacts.runStart[i + 1]) continue;
+          bool moved = false;
+          for (std::size_t k = 0; k < colliders.size(); ++k) {
+            const SurfacePoint s = surfaceAt(colliders, k, particles.p[i]);
+            if (s.gap < 0) {
+              particles.p[i] -= s.gap * s.normal;
+              moved = true;
+            }
+          }
+          repaired += moved;
+        }
+        return repaired;
+      },
+      std::plus<>());
+}
+
+std::size_t countTouchingParticles(const ColliderPool& colliders, const ParticlePool& particles,
+                                   Real tolerance) {
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    if (particles.w[i] == 0) continue;
+    for (std::size_t k = 0; k < colliders.size(); ++k)
+      if (surfaceAt(colliders, k, particles.x[i]).gap <= tolerance) {
+        ++count;
+        break;
+      }
+  }
+  return count;
+}
+
+}  // namespace nucleon

@@ -1,0 +1,607 @@
+#include "systems/collision/primitive_contacts.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/parallel_scan.h>
+
+#include "systems/collision/ccd.h"
+#include "systems/collision/primitive_distance.h"
+
+namespace nucleon {
+namespace {
+
+constexpr std::size_t kPairGrain = 1024;
+constexpr std::size_t kParticleGrain = 1024;
+// Rounds of the fail-safe before it gives up and reports the pairs left (each round stops at
+// least one more particle, so this bounds the work, not the outcome of realistic scenes).
+constexpr int kMaxFailsafeRounds = 64;
+
+// The particles of a candidate pair, the first primitive's first, with the primitives' radii
+// and objects.
+struct PairView {
+  PairKind kind;
+  int count = 0;      // particles in the pair
+  int firstSide = 0;  // how many of them belong to the first primitive
+  Index id[4] = {0, 0, 0, 0};
+  Real radius = 0;  // the two radii summed: the contact distance
+  std::uint32_t objectA = 0, objectB = 0;
+};
+
+PairView viewOf(const CollisionPrimitives& prims, PairKind kind, Index a, Index b) {
+  PairView v;
+  v.kind = kind;
+  switch (kind) {
+    case PairKind::VertexFace: {
+      const auto& t = prims.triangleParticles[b];
+      v.count = 4, v.firstSide = 1;
+      v.id[0] = prims.pointParticle[a], v.id[1] = t[0], v.id[2] = t[1], v.id[3] = t[2];
+      v.radius = prims.pointRadius[a] + prims.triangleRadius[b];
+      v.objectA = prims.pointObject[a], v.objectB = prims.triangleObject[b];
+      break;
+    }
+    case PairKind::EdgeEdge: {
+      const auto& e = prims.edgeParticles[a];
+      const auto& f = prims.edgeParticles[b];
+      v.count = 4, v.firstSide = 2;
+      v.id[0] = e[0], v.id[1] = e[1], v.id[2] = f[0], v.id[3] = f[1];
+      v.radius = prims.edgeRadius[a] + prims.edgeRadius[b];
+      v.objectA = prims.edgeObject[a], v.objectB = prims.edgeObject[b];
+      break;
+    }
+    case PairKind::VertexEdge: {
+      const auto& e = prims.edgeParticles[b];
+      v.count = 3, v.firstSide = 1;
+      v.id[0] = prims.pointParticle[a], v.id[1] = e[0], v.id[2] = e[1];
+      v.radius = prims.pointRadius[a] + prims.edgeRadius[b];
+      v.objectA = prims.pointObject[a], v.objectB = prims.edgeObject[b];
+      break;
+    }
+    case PairKind::VertexVertex:
+      v.count = 2, v.firstSide = 1;
+      v.id[0] = prims.pointParticle[a], v.id[1] = prims.pointParticle[b];
+      v.radius = prims.pointRadius[a] + prims.pointRadius[b];
+      v.objectA = prims.pointObject[a], v.objectB = prims.pointObject[b];
+      break;
+  }
+  return v;
+}
+
+// Coefficients c_k of the closest points of the pair at positions X (C's gradient directions).
+std::array<double, 4> closestCoefficients(PairKind kind, const Vec3d* X) {
+  switch (kind) {
+    case PairKind::VertexFace: {
+      const auto b = closestOnTriangle(X[0], X[1], X[2], X[3]);
+      return {1, -b[0], -b[1], -b[2]};
+    }
+    case PairKind::EdgeEdge: {
+      const auto st = closestBetweenSegments(X[0], X[1], X[2], X[3]);
+      return {1 - st[0], st[0], -(1 - st[1]), -st[1]};
+    }
+    case PairKind::VertexEdge: {
+      const double t = closestOnSegment(X[0], X[1], X[2]);
+      return {1, -(1 - t), -t, 0};
+    }
+    case PairKind::VertexVertex:
+      return {1, -1, 0, 0};
+  }
+  return {0, 0, 0, 0};
+}
+
+Vec3d combine(const std::array<double, 4>& c, const Vec3d* X, int count) {
+  Vec3d sum = Vec3d::Zero();
+  for (int k = 0; k < count; ++k) sum += c[k] * X[k];
+  return sum;
+}
+
+// Earliest time in [0, 1] at which the pair, moving linearly from X0 to X1, may come within
+// `distance`; conservative (systems/collision/ccd.h).
+CcdResult pairCcd(PairKind kind, const Vec3d* X0, const Vec3d* X1, double distance) {
+  switch (kind) {
+    case PairKind::VertexFace:
+      return vertexFaceCcd(X0[0], X0[1], X0[2], X0[3], X1[0], X1[1], X1[2], X1[3], distance);
+    case PairKind::EdgeEdge:
+      return edgeEdgeCcd(X0[0], X0[1], X0[2], X0[3], X1[0], X1[1], X1[2], X1[3], distance);
+    case PairKind::VertexEdge:
+      return vertexEdgeCcd(X0[0], X0[1], X0[2], X1[0], X1[1], X1[2], distance);
+    case PairKind::VertexVertex:
+      return vertexVertexCcd(X0[0], X0[1], X1[0], X1[1], distance);
+  }
+  return CcdResult{};
+}
+
+// Bound on how much the distance between the two primitives can shrink over the motion X0 → X1.
+// The distance does not change under a translation common to both, so take away the first
+// particle's displacement u_0 from every particle: each point of a side then moves at most the
+// largest |u_k − u_0| of that side (a point of a primitive is a fixed convex combination of its
+// particles), and the distance, 1-Lipschitz in each point, shrinks by at most the two summed.
+// Relative: a cloth falling as a whole has neighbours whose bound is near zero.
+double motionBound(const PairView& v, const Vec3d* X0, const Vec3d* X1) {
+  const Vec3d u0 = X1[0] - X0[0];
+  double a = 0, b = 0;
+  for (int k = 1; k < v.count; ++k) {
+    const double d = (X1[k] - X0[k] - u0).norm();
+    if (k < v.firstSide)
+      a = std::max(a, d);
+    else
+      b = std::max(b, d);
+  }
+  return a + b;
+}
+
+// A lower bound on the distance between the two primitives at X: the gap between the boxes of
+// their particles (a few comparisons against a closest-point computation).
+double boxDistance(const PairView& v, const Vec3d* X) {
+  Vec3d lowerA = X[0], upperA = X[0];
+  for (int k = 1; k < v.firstSide; ++k)
+    lowerA = lowerA.cwiseMin(X[k]), upperA = upperA.cwiseMax(X[k]);
+  Vec3d lowerB = X[v.firstSide], upperB = X[v.firstSide];
+  for (int k = v.firstSide + 1; k < v.count; ++k)
+    lowerB = lowerB.cwiseMin(X[k]), upperB = upperB.cwiseMax(X[k]);
+  const Vec3d gap = (lowerB - upperA).cwiseMax(lowerA - upperB).cwiseMax(0.0);
+  return gap.norm();
+}
+
+// Makes the contact of candidate pair `v` if it may come within reach; false if it cannot.
+bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectSurface* surfaces,
+                 double& startDistance, PrimitiveContactPool& out, std::size_t slot, bool write) {
+  Vec3d X0[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
+  Vec3d X1[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
+  for (int k = 0; k < v.count; ++k) {
+    X0[k] = particles.x[v.id[k]].cast<double>();
+    X1[k] = particles.p[v.id[k]].cast<double>();
+  }
+  const double reach = double(v.radius) + double(kPrimitiveContactMargin);
+  const double motion = motionBound(v, X0, X1);
+  // The start distance is what the fail-safe needs of every pair, and a lower bound serves it as
+  // long as it is positive (a pair at distance 0 is left to its contact). The box gap is one, and
+  // where it already rules the contact out, the exact distance is not computed.
+  const double gapBound = boxDistance(v, X0);
+  if (gapBound > 1e-9 && (gapBound - motion > reach || !std::isfinite(motion))) {
+    startDistance = gapBound;
+    return false;
+  }
+  const auto c0 = closestCoefficients(v.kind, X0);
+  const Vec3d gap0 = combine(c0, X0, v.count);
+  startDistance = gap0.norm();
+  if (v.objectA == v.objectB) {
+    // Held apart by the mesh itself: no contact between primitives of one object that are closer
+    // than their contact distance in the rest shape (they would push the mesh away from its rest
+    // shape); the fail-safe still checks them for crossings. (Dropping also the pairs within
+    // reach, contact distance + margin, in the rest shape cut contacts on a single cloth layer
+    // but let folded layers of cloth_self press through to the ground: measured worse.)
+    Vec3d R[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
+    for (int k = 0; k < v.count; ++k) R[k] = particles.restPosition[v.id[k]].cast<double>();
+    if (boxDistance(v, R) < double(v.radius) &&
+        combine(closestCoefficients(v.kind, R), R, v.count).norm() < double(v.radius))
+      return false;
+  }
+  if (!std::isfinite(startDistance) || startDistance - motion > reach) return false;
+  // Along the predicted motion the distance is at least max(d0 − t L, d1 − (1 − t) L), whose
+  // smallest value over t is (d0 + d1 − L) / 2.
+  const auto c1 = closestCoefficients(v.kind, X1);
+  const double endDistance = combine(c1, X1, v.count).norm();
+  if ((startDistance + endDistance - motion) / 2 > reach) return false;
+  // A non-finite prediction gets no contact, so that it cannot spread to the pair's other
+  // particles; the update resets and counts it.
+  if (!std::isfinite(motion) || !std::isfinite(endDistance)) return false;
+  if (!write) return true;
+
+  // The configuration the contact is linearised at: where the pair first comes within its
+  // contact distance if it does during the predicted motion, else the predicted end.
+  // CCD only where the bound above leaves room to come within the contact distance.
+  const bool mayImpact = (startDistance + endDistance - motion) / 2 <= double(v.radius);
+  const CcdResult impact =
+      mayImpact ? pairCcd(v.kind, X0, X1, double(v.radius)) : CcdResult{false, 1.0};
+  const double t = impact.hit ? std::clamp(impact.toi, 0.0, 1.0) : 1.0;
+  Vec3d X[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
+  for (int k = 0; k < v.count; ++k) X[k] = (1 - t) * X0[k] + t * X1[k];
+  std::array<double, 4> c = closestCoefficients(v.kind, X);
+  Vec3d n = combine(c, X, v.count);
+  const double scale = 1e-9 * std::max(1.0, X[0].cwiseAbs().maxCoeff());
+  if (n.norm() <= scale) {
+    // Touching at the impact (zero contact distance): the side the pair started on.
+    c = c0;
+    n = gap0;
+  }
+  if (n.norm() <= scale) {
+    // Coincident at the start as well: a face's normal, else any fixed direction.
+    if (v.kind == PairKind::VertexFace) n = (X[2] - X[1]).cross(X[3] - X[1]);
+    if (!(n.norm() > 0)) n = Vec3d(0, 1, 0);
+  }
+  n.normalize();
+
+  const ObjectSurface& a = surfaces[v.objectA];
+  const ObjectSurface& b = surfaces[v.objectB];
+  out.particles[slot] = {v.id[0], v.id[1], v.id[2], v.id[3]};
+  std::array<Real, 4> coefficient{};
+  Vec3d relativeVelocity = Vec3d::Zero();
+  for (int k = 0; k < v.count; ++k) {
+    coefficient[k] = static_cast<Real>(c[k]);
+    relativeVelocity += c[k] * particles.v[v.id[k]].cast<double>();
+  }
+  out.coefficient[slot] = coefficient;
+  out.normal[slot] = n.cast<Real>();
+  out.distance[slot] = v.radius;
+  out.lambda[slot] = 0;
+  out.friction[slot] = (a.friction + b.friction) / 2;
+  out.staticFriction[slot] = (a.staticFriction + b.staticFriction) / 2;
+  out.restitution[slot] = std::max(a.restitution, b.restitution);
+  out.stickiness[slot] = std::max(a.stickiness, b.stickiness);
+  out.approachSpeed[slot] = static_cast<Real>(n.dot(relativeVelocity));
+  return true;
+}
+
+// Σ w_k c_k²: the generalised inverse mass of a contact along its normal.
+Real inverseMass(const PrimitiveContactPool& pool, const ParticlePool& particles, std::size_t c) {
+  Real sum = 0;
+  for (int k = 0; k < 4; ++k) {
+    const Real ck = pool.coefficient[c][k];
+    sum += particles.w[pool.particles[c][k]] * ck * ck;
+  }
+  return sum;
+}
+
+// The step Δλ of contact c at the current positions: C = n · Σ c_k p_k − distance must not be
+// negative, and with stickiness s a separation C < s is pulled back to 0 as well.
+Real contactStep(const PrimitiveContactPool& pool, const ParticlePool& particles, std::size_t c) {
+  Vec3 sum = Vec3::Zero();
+  for (int k = 0; k < 4; ++k) sum += pool.coefficient[c][k] * particles.p[pool.particles[c][k]];
+  const Real C = pool.normal[c].dot(sum) - pool.distance[c];
+  if (C >= pool.stickiness[c] || (C >= 0 && pool.stickiness[c] == 0)) return 0;
+  const Real m = inverseMass(pool, particles, c);
+  return m > 0 ? -C / m : Real(0);
+}
+
+// The tangential correction of contact c over the substep (Coulomb, position level): the relative
+// tangential motion d_t of the contact points is removed entirely if |d_t| ≤ μ_s λ_n and by
+// μ_k λ_n otherwise.
+Vec3 frictionStep(const PrimitiveContactPool& pool, const ParticlePool& particles, std::size_t c) {
+  const Real lambda = pool.lambda[c];
+  if (!(lambda > 0)) return Vec3::Zero();
+  Vec3 d = Vec3::Zero();
+  for (int k = 0; k < 4; ++k) {
+    const Index i = pool.particles[c][k];
+    d += pool.coefficient[c][k] * (particles.p[i] - particles.x[i]);
+  }
+  const Vec3& n = pool.normal[c];
+  const Vec3 tangential = d - n * n.dot(d);
+  const Real length = tangential.norm();
+  if (!(length > 0)) return Vec3::Zero();
+  const Real m = inverseMass(pool, particles, c);
+  if (!(m > 0)) return Vec3::Zero();
+  const Real removed = length <= pool.staticFriction[c] * lambda
+                           ? Real(1)
+                           : std::min(pool.friction[c] * lambda / length, Real(1));
+  return -removed * tangential / m;
+}
+
+// Applies per-contact corrections (contact c moves particle k of it by w_k c_k · correction(c))
+// gathered per particle in contact order and averaged over the particle's active contacts.
+template <class Correction>
+void gatherCorrections(const PrimitiveContactPool& pool, ParticlePool& particles,
+                       Correction&& correction) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pool.touched.size(), kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t t = r.begin(); t != r.end(); ++t) {
+                        const Index i = pool.touched[t];
+                        Vec3 sum = Vec3::Zero();
+                        int active = 0;
+                        for (Index e = pool.incidenceOffset[i]; e < pool.incidenceOffset[i + 1];
+                             ++e) {
+                          const Index c = pool.incidence[e] >> 2, k = pool.incidence[e] & 3;
+                          const Vec3 delta = correction(c);
+                          if (delta.isZero(0)) continue;
+                          sum += pool.coefficient[c][k] * delta;
+                          ++active;
+                        }
+                        if (active > 0) particles.p[i] += particles.w[i] * sum / Real(active);
+                      }
+                    });
+}
+
+// The CSR incidence, in parallel: per-particle counts (integer atomics: the same totals in any
+// order), one scan for the offsets and the touched particles, a fill through atomic cursors, and
+// each particle's short list sorted into contact order, so the gather's summation order, and its
+// result, do not depend on the thread count.
+void buildIncidence(PrimitiveContactPool& pool, std::size_t particleCount) {
+  const std::size_t n = pool.size();
+  pool.incidenceOffset.assign(particleCount + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t c = r.begin(); c != r.end(); ++c)
+                        for (int k = 0; k < 4; ++k)
+                          if (pool.coefficient[c][k] != 0)
+                            std::atomic_ref<Index>(pool.incidenceOffset[pool.particles[c][k] + 1])
+                                .fetch_add(1, std::memory_order_relaxed);
+                    });
+  // Inclusive scan of the counts into offsets; the touched flags are scanned alongside into each
+  // touched particle's place in `touched`.
+  struct Sums {
+    Index entries = 0, touched = 0;
+  };
+  pool.incidenceCursor.resize(particleCount);
+  const Sums total = tbb::parallel_scan(
+      tbb::blocked_range<std::size_t>(0, particleCount, kParticleGrain), Sums{},
+      [&](const tbb::blocked_range<std::size_t>& r, Sums sum, bool final) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Index count = pool.incidenceOffset[i + 1];
+          if (final) {
+            pool.incidenceCursor[i] = sum.touched;
+            pool.incidenceOffset[i + 1] = sum.entries + count;
+          }
+          sum.entries += count;
+          sum.touched += count > 0;
+        }
+        return sum;
+      },
+      [](Sums a, Sums b) {
+        return Sums{a.entries + b.entries, a.touched + b.touched};
+      });
+  pool.touched.resize(total.touched);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particleCount, kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        if (pool.incidenceOffset[i + 1] > pool.incidenceOffset[i])
+                          pool.touched[pool.incidenceCursor[i]] = static_cast<Index>(i);
+                        pool.incidenceCursor[i] = pool.incidenceOffset[i];
+                      }
+                    });
+  pool.incidence.resize(total.entries);
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t c = r.begin(); c != r.end(); ++c)
+          for (int k = 0; k < 4; ++k)
+            if (pool.coefficient[c][k] != 0) {
+              const Index at = std::atomic_ref<Index>(pool.incidenceCursor[pool.particles[c][k]])
+                                   .fetch_add(1, std::memory_order_relaxed);
+              pool.incidence[at] = static_cast<Index>(c << 2 | static_cast<std::size_t>(k));
+            }
+      });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pool.touched.size(), kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t t = r.begin(); t != r.end(); ++t) {
+                        const Index i = pool.touched[t];
+                        std::sort(pool.incidence.begin() + pool.incidenceOffset[i],
+                                  pool.incidence.begin() + pool.incidenceOffset[i + 1]);
+                      }
+                    });
+}
+
+}  // namespace
+
+void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
+                             const CollisionPrimitives& primitives, const ParticlePool& particles) {
+  const ObjectSurface* surfaces = primitives.objectSurface.data();
+  const std::size_t n = candidates.size();
+  contacts.slotOfCandidate.resize(n + 1);
+  contacts.startDistance.resize(n);
+  contacts.suspect.resize(n);
+  // Pass 1: which candidates become contacts (and their start distance).
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const PairView v =
+              viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
+          contacts.slotOfCandidate[i] =
+              makeContact(v, particles, surfaces, contacts.startDistance[i], contacts, 0, false)
+                  ? 1
+                  : 0;
+        }
+      });
+  // Exclusive scan: places in candidate order, whatever the thread count.
+  contacts.slotOfCandidate[n] = 0;
+  tbb::parallel_scan(
+      tbb::blocked_range<std::size_t>(0, n + 1, kPairGrain), Index{0},
+      [&](const tbb::blocked_range<std::size_t>& r, Index sum, bool final) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Index here = contacts.slotOfCandidate[i];
+          if (final) contacts.slotOfCandidate[i] = sum;
+          sum += here;
+        }
+        return sum;
+      },
+      std::plus<>());
+  contacts.resize(contacts.slotOfCandidate[n]);
+  // Pass 2: the contacts themselves.
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          if (contacts.slotOfCandidate[i] == contacts.slotOfCandidate[i + 1]) continue;
+          const PairView v =
+              viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
+          double ignored = 0;
+          makeContact(v, particles, surfaces, ignored, contacts, contacts.slotOfCandidate[i], true);
+        }
+      });
+  buildIncidence(contacts, particles.size());
+}
+
+void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& particles,
+                              SolverKind kind) {
+  const std::size_t n = contacts.size();
+  if (n == 0) return;
+  if (kind == SolverKind::GaussSeidel) {
+    for (std::size_t c = 0; c < n; ++c) {
+      const Real step = contactStep(contacts, particles, c);
+      if (step == 0) continue;
+      contacts.lambda[c] += step * inverseMass(contacts, particles, c);
+      const Vec3 push = step * contacts.normal[c];
+      for (int k = 0; k < 4; ++k) {
+        const Index i = contacts.particles[c][k];
+        particles.p[i] += particles.w[i] * contacts.coefficient[c][k] * push;
+      }
+    }
+    return;
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t c = r.begin(); c != r.end(); ++c) {
+                        contacts.step[c] = contactStep(contacts, particles, c);
+                        contacts.lambda[c] +=
+                            contacts.step[c] * inverseMass(contacts, particles, c);
+                      }
+                    });
+  gatherCorrections(contacts, particles,
+                    [&](Index c) -> Vec3 { return contacts.step[c] * contacts.normal[c]; });
+}
+
+void applyPrimitiveFriction(PrimitiveContactPool& contacts, ParticlePool& particles,
+                            SolverKind kind) {
+  const std::size_t n = contacts.size();
+  if (n == 0) return;
+  if (kind == SolverKind::GaussSeidel) {
+    for (std::size_t c = 0; c < n; ++c) {
+      const Vec3 step = frictionStep(contacts, particles, c);
+      for (int k = 0; k < 4; ++k) {
+        const Index i = contacts.particles[c][k];
+        particles.p[i] += particles.w[i] * contacts.coefficient[c][k] * step;
+      }
+    }
+    return;
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t c = r.begin(); c != r.end(); ++c)
+                        contacts.tangentStep[c] = frictionStep(contacts, particles, c);
+                    });
+  gatherCorrections(contacts, particles, [&](Index c) -> Vec3 { return contacts.tangentStep[c]; });
+}
+
+void measureStartDistances(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
+                           const CollisionPrimitives& primitives, const ParticlePool& particles) {
+  const std::size_t n = candidates.size();
+  contacts.startDistance.resize(n);
+  contacts.suspect.resize(n);
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const PairView v =
+              viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
+          Vec3d X0[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
+          for (int k = 0; k < v.count; ++k) X0[k] = particles.x[v.id[k]].cast<double>();
+          // A positive lower bound serves the fail-safe (see makeContact).
+          const double gap = boxDistance(v, X0);
+          contacts.startDistance[i] =
+              gap > 1e-9 ? gap : combine(closestCoefficients(v.kind, X0), X0, v.count).norm();
+        }
+      });
+}
+
+CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
+                                const CollisionPrimitives& primitives, ParticlePool& particles) {
+  CrossingReport report;
+  // Every particle ends inside its bounds, which the broad phase's inflated boxes enclose: no pair
+  // outside the candidate set can have crossed.
+  report.clamped = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, particles.size(), kParticleGrain), std::size_t{0},
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t clamped) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          // A non-finite prediction is left for the update, which resets and counts it.
+          if (particles.w[i] == 0 || !particles.p[i].allFinite()) continue;
+          const Vec3 inside =
+              particles.p[i].cwiseMax(candidates.boundLower[i]).cwiseMin(candidates.boundUpper[i]);
+          if (inside != particles.p[i]) {
+            particles.p[i] = inside;
+            ++clamped;
+          }
+        }
+        return clamped;
+      },
+      std::plus<>());
+  const std::size_t n = candidates.size();
+  for (int round = 0; round < kMaxFailsafeRounds; ++round) {
+    // Pairs whose start distance the final motion could have used up, tested by CCD at zero
+    // thickness: does any point of one reach the other?
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+          for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            contacts.suspect[i] = 0;
+            const PairView v =
+                viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
+            Vec3d X0[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
+            Vec3d X1[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
+            for (int k = 0; k < v.count; ++k) {
+              X0[k] = particles.x[v.id[k]].cast<double>();
+              X1[k] = particles.p[v.id[k]].cast<double>();
+            }
+            const double motion = motionBound(v, X0, X1);
+            // Non-finite motion is the update's to reset and count, not the fail-safe's. A pair
+            // that already touches at the start (coincident vertices of two objects, say) has no
+            // crossing-free start to keep: its contact pushes it apart instead.
+            if (!std::isfinite(motion) || contacts.startDistance[i] - motion > 0 ||
+                !(contacts.startDistance[i] > 1e-9))
+              continue;
+            contacts.suspect[i] = pairCcd(v.kind, X0, X1, 0.0).hit ? 1 : 0;
+          }
+        });
+    std::size_t crossings = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!contacts.suspect[i]) continue;
+      ++crossings;
+      const PairView v =
+          viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
+      bool freeA = false, freeB = false;
+      Vec3 shiftA = Vec3::Zero(), shiftB = Vec3::Zero();
+      for (int k = 0; k < v.count; ++k) {
+        const Index id = v.id[k];
+        const bool isFree = particles.w[id] > 0;
+        const Vec3 motion = particles.p[id] - particles.x[id];
+        if (k < v.firstSide)
+          freeA |= isFree, shiftA += motion / Real(v.firstSide);
+        else
+          freeB |= isFree, shiftB += motion / Real(v.count - v.firstSide);
+      }
+      // A free side against a side that cannot move is carried along with it; otherwise the free
+      // particles stop where the substep started.
+      for (int k = 0; k < v.count; ++k) {
+        const Index id = v.id[k];
+        if (particles.w[id] == 0) continue;
+        const bool sideA = k < v.firstSide;
+        const bool otherFree = sideA ? freeB : freeA;
+        const Vec3 target =
+            otherFree ? particles.x[id] : particles.x[id] + (sideA ? shiftB : shiftA);
+        if (particles.p[id] != target) {
+          particles.p[id] = target;
+          ++report.stopped;
+        }
+      }
+    }
+    report.crossings += crossings;
+    report.rounds = round + 1;
+    if (crossings == 0) return report;
+    if (round + 1 == kMaxFailsafeRounds) report.unresolved = crossings;
+  }
+  return report;
+}
+
+void applyRestitution(const PrimitiveContactPool& contacts, ParticlePool& particles) {
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    const Real e = contacts.restitution[c];
+    if (e == 0 || !(contacts.lambda[c] > 0) || contacts.approachSpeed[c] >= 0) continue;
+    const Vec3& n = contacts.normal[c];
+    Vec3 relative = Vec3::Zero();
+    for (int k = 0; k < 4; ++k)
+      relative += contacts.coefficient[c][k] * particles.v[contacts.particles[c][k]];
+    const Real target = -e * contacts.approachSpeed[c];
+    const Real missing = target - n.dot(relative);
+    if (missing <= 0) continue;
+    const Real m = inverseMass(contacts, particles, c);
+    if (!(m > 0)) continue;
+    for (int k = 0; k < 4; ++k) {
+      const Index i = contacts.particles[c][k];
+      particles.v[i] += particles.w[i] * contacts.coefficient[c][k] * (missing / m) * n;
+    }
+  }
+}
+
+}  // namespace nucleon

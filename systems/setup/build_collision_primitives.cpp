@@ -1,0 +1,101 @@
+#include "systems/setup/build_collision_primitives.h"
+
+#include <algorithm>
+#include <limits>
+#include <set>
+
+namespace nucleon {
+namespace {
+
+void addPoint(CollisionPrimitives& out, Index particle, Real radius, std::uint32_t object,
+              bool isolated) {
+  out.pointParticle.push_back(particle);
+  out.pointRadius.push_back(radius);
+  out.pointObject.push_back(object);
+  out.pointIsolated.push_back(isolated ? 1 : 0);
+}
+
+}  // namespace
+
+void buildCollisionPrimitives(CollisionPrimitives& out, const std::vector<ObjectRecord>& objects,
+                              const std::vector<std::uint64_t>& excludedObjectPairs) {
+  out.clear();
+  out.excludedPairs = excludedObjectPairs;
+  for (std::uint32_t o = 0; o < objects.size(); ++o)
+    if (!objects[o].material.selfCollision)
+      out.excludedPairs.push_back(CollisionPrimitives::pairKey(o, o));
+  std::sort(out.excludedPairs.begin(), out.excludedPairs.end());
+  out.excludedPairs.erase(std::unique(out.excludedPairs.begin(), out.excludedPairs.end()),
+                          out.excludedPairs.end());
+  // An object that can meet nothing (alone with its self-collision off, or a collider among
+  // colliders, which never respond to each other) contributes no primitives, so that a world
+  // without possible collisions pays nothing for them.
+  auto canCollide = [&](std::uint32_t a, std::uint32_t b) {
+    if (out.excluded(a, b)) return false;
+    return objects[a].kind != ObjectKind::Collider || objects[b].kind != ObjectKind::Collider;
+  };
+  for (std::uint32_t o = 0; o < objects.size(); ++o) {
+    const ObjectRecord& record = objects[o];
+    const Material& m = record.material;
+    const Index first = record.firstParticle;
+    const Real radius = m.thickness;
+    out.objectSurface.push_back({m.friction, m.staticFriction, m.restitution, m.stickiness});
+    bool meetsAnything = false;
+    for (std::uint32_t other = 0; other < objects.size() && !meetsAnything; ++other)
+      meetsAnything = canCollide(o, other);
+    if (!meetsAnything) continue;
+
+    // The simplices that bound the object: a solid collides through its boundary surface only,
+    // everything else through all of its simplices.
+    std::vector<std::array<Index, 2>> edges;
+    std::vector<std::array<Index, 3>> triangles;
+    std::vector<std::uint8_t> onSurface(record.particleCount, 0);
+    if (record.kind == ObjectKind::Solid) {
+      triangles = record.surface;
+      std::set<std::array<Index, 2>> unique;
+      for (const auto& t : triangles)
+        for (int k = 0; k < 3; ++k) {
+          const Index a = t[k], b = t[(k + 1) % 3];
+          unique.insert({std::min(a, b), std::max(a, b)});
+        }
+      edges.assign(unique.begin(), unique.end());
+    } else {
+      triangles.assign(record.complex.triangles.vertices.begin(),
+                       record.complex.triangles.vertices.end());
+      for (const auto& e : record.complex.edges.vertices)
+        edges.push_back({std::min(e[0], e[1]), std::max(e[0], e[1])});
+    }
+    std::vector<std::uint8_t> inEdge(record.particleCount, 0);
+    // A point is isolated when no colliding edge carries its contacts.
+    if (m.collideEdges)
+      for (const auto& e : edges) inEdge[e[0]] = inEdge[e[1]] = 1;
+    for (const auto& t : triangles)
+      for (Index v : t) onSurface[v] = 1;
+    for (const auto& e : edges) onSurface[e[0]] = onSurface[e[1]] = 1;
+
+    if (m.collideVertices)
+      for (Index v = 0; v < record.particleCount; ++v) {
+        // Interior vertices of a solid never reach another object before its surface does.
+        if (record.kind == ObjectKind::Solid && !onSurface[v]) continue;
+        addPoint(out, first + v, radius, o, !inEdge[v]);
+      }
+    if (m.collideEdges)
+      for (const auto& e : edges) {
+        out.edgeParticles.push_back({first + e[0], first + e[1]});
+        out.edgeRadius.push_back(radius);
+        out.edgeObject.push_back(o);
+      }
+    if (m.collideFaces)
+      for (const auto& t : triangles) {
+        out.triangleParticles.push_back({first + t[0], first + t[1], first + t[2]});
+        out.triangleRadius.push_back(radius);
+        out.triangleObject.push_back(o);
+      }
+  }
+  Real smallest = std::numeric_limits<Real>::infinity();
+  for (const auto* radii : {&out.pointRadius, &out.edgeRadius, &out.triangleRadius})
+    for (Real r : *radii) smallest = std::min(smallest, r);
+  out.smallestRadius = out.total() > 0 ? smallest : Real(0);
+}
+
+}  // namespace nucleon

@@ -1,0 +1,347 @@
+// The generic sweeps, one per backend (ARCHITECTURE.md §3): Gauss–Seidel in coloring order one
+// constraint at a time, Jacobi (corrections from the same state, averaged fixed-order gather) and
+// colored Gauss–Seidel (colors in sequence, each in parallel). Every family runs through them: a
+// built-in pool (ConstraintPool<N>) with its kernel as a template parameter, so dispatch is per
+// family and never per constraint, and a registered family's pool (UserConstraintPool, Kernel =
+// UserKernel) through its evaluate function. `Paths` (sweep_paths.h, from the family table) says
+// which faster paths a built-in pool may take instead where they apply.
+//
+// A sweep may be restricted to some objects (per-object schedules): `objectRuns`, when not null,
+// says for each object index whether its constraints take part in this sweep. A constraint
+// belongs to the object of its first particle (particles.phase).
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+
+#include <type_traits>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "components/constraint_pool.h"
+#include "components/particles.h"
+#include "components/user_constraint_pool.h"
+#include "nucleon/solver_settings.h"
+#include "systems/solver/colored_sweep.h"
+#include "systems/solver/constraint_kernels.h"
+#include "systems/solver/distance_batch.h"
+#include "systems/solver/jacobi_chebyshev.h"
+#include "systems/solver/jacobi_gather.h"
+#include "systems/solver/jacobi_vertex.h"
+#include "systems/solver/sweep_paths.h"
+
+namespace nucleon {
+
+// The state a sweep reads besides the pool: particles, substep length and the object filter.
+struct SweepContext {
+  ParticlePool& particles;
+  Real h = 0;
+  Real relaxation = 1;                       // Jacobi γ (under/over-relaxation of each step)
+  const std::uint8_t* objectRuns = nullptr;  // null: every object
+  // Jacobi sweeps of each pool so far in this solve: the Chebyshev weight follows the sweep's
+  // index. A context lives for one substep's solve, so the count restarts with every substep.
+  mutable JacobiSweepCounter jacobiSweeps{};
+  Real chebyshevRho = kChebyshevSpectralRadius;  // Jacobi: the spectral radius estimate ρ
+  // Jacobi's γ for the particles of a sheet or solid (at least three constraints in the pool)
+  // in the vertex-centric sweep; 0: `relaxation`, as for every other particle.
+  Real sheetRelaxation = 0;
+  // False: every pool takes the generic sweep, none of the optimised paths of the family table
+  // (SolverSettings::optimizedPaths).
+  bool optimizedPaths = true;
+};
+
+// The kernel tag of a registered family's pool: C and ∇C come from the family's evaluate.
+struct UserKernel {};
+
+// Paths a direct caller of a sweep gets: every optimised path that applies to the kernel.
+constexpr unsigned kApplicablePaths = kDistanceBatch | kVertexJacobi;
+
+namespace sweep_detail {
+constexpr std::size_t kGrain = 512;
+
+// Particles per constraint as a compile-time bound: the arity of a built-in kernel, the largest
+// arity of a registered family.
+template <class Kernel>
+constexpr std::size_t kMaxArity = Kernel::kArity;
+template <>
+constexpr std::size_t kMaxArity<UserKernel> = kMaxUserConstraintArity;
+
+template <class Pool>
+NUCLEON_KERNEL bool takesPart(const Pool& pool, std::size_t c, const SweepContext& context) {
+  return !context.objectRuns ||
+         context.objectRuns[context.particles.phase[pool.particle(c, 0)]] != 0;
+}
+
+// Computes constraint c's correction dx (one per particle) from p (the positions being solved);
+// returns Δλ. With `inverseMass` = pool.splitInverseMass (Jacobi), particle i's inverse mass is
+// multiplied by the number of the pool's constraints that share it (mass splitting): see
+// solveJacobi.
+template <class Kernel, class Pool>
+NUCLEON_KERNEL Real correct(const Pool& pool, std::size_t c, const Vec3* p, const ParticlePool& ps,
+                            Real invH, Vec3* dx, const Real* inverseMass = nullptr) {
+  constexpr std::size_t kMax = kMaxArity<Kernel>;
+  const std::size_t n = pool.arity();  // a constant for the built-in pools
+  Points<kMax> x, start, grad;
+  std::array<Real, kMax> weights;
+  for (std::size_t k = 0; k < n; ++k) {
+    const Index i = pool.particle(c, k);
+    x[k] = p[i];
+    weights[k] = inverseMass ? inverseMass[i] : ps.w[i];
+  }
+  const Real invH2 = invH * invH;
+  ProjectionTerms terms;
+  terms.alphaTilde = pool.compliance[c] * invH2;
+  terms.alphaTildeBelow = pool.compressionCompliance[c] * invH2;
+  terms.lambda = pool.lambda[c];
+  if (pool.damping[c] > 0) {  // only damped constraints read the substep's start positions
+    terms.gamma = pool.damping[c] * invH;
+    for (std::size_t k = 0; k < n; ++k) start[k] = ps.x[pool.particle(c, k)];
+  }
+  if constexpr (std::is_same_v<Kernel, UserKernel>) {
+    // The family's C includes its rest data: terms.rest stays 0.
+    const UserConstraintFamilyDef& family = pool.family;
+    for (std::size_t k = 0; k < n; ++k) grad[k].setZero();
+    const Real value = family.evaluate(x.data(), pool.restOf(c), grad.data(), family.userData);
+    ProjectionForm form;
+    form.angular = family.angular;
+    form.unilateral = family.unilateral;
+    form.unitGradients = family.unitGradients;
+    return projectEvaluated(value, grad.data(), x.data(), start.data(), weights.data(), n, terms,
+                            form, dx);
+  } else {
+    terms.rest = pool.rest[c];
+    const Real value = Kernel::value(x, grad);
+    return projectEvaluated(value, grad.data(), x.data(), start.data(), weights.data(), kMax, terms,
+                            projectionFormOf<Kernel>(), dx);
+  }
+}
+
+template <class Kernel, class Pool>
+NUCLEON_KERNEL void projectInPlace(Pool& pool, std::size_t c, ParticlePool& ps, Real invH) {
+  Vec3 dx[kMaxArity<Kernel>];
+  Vec3* p = ps.p.data();
+  pool.lambda[c] += correct<Kernel>(pool, c, p, ps, invH, dx);
+  // Pins (w = 0) get dx = 0 and are not written: constraints of one color may share them.
+  for (std::size_t k = 0; k < pool.arity(); ++k) {
+    const Index i = pool.particle(c, k);
+    if (ps.w[i] != 0) p[i] += dx[k];
+  }
+}
+}  // namespace sweep_detail
+
+// The sequential reference: Gauss–Seidel one constraint at a time, in coloring order (all of
+// color 0, then color 1, …, then the overflow range). The order decides stability, not only the
+// rate of convergence. A sweep of sequential projections is one nonlinear Gauss–Seidel iteration
+// on the multipliers' system J W Jᵀ Δλ = −C (Macklin et al. 2016, eq. 18): it applies (D + L)⁻¹,
+// L holding each constraint's couplings to those before it in the order, which is not
+// symmetric. With one sweep per substep the sweep's correction is the whole velocity change, so
+// the non-symmetric part acts as a non-conservative force (our reading of the measurements
+// below), and it is largest where the order runs long chains of constraints that each start from
+// the previous one's result. The pool's own order is such an order: edges sorted by vertex index,
+// so a cloth's edges run along its rows, and one sweep carries a correction the whole width of the
+// cloth. Measured in that order, on a 64×64 cloth hanging from two corners with 10 substeps of one
+// sweep, the total energy rises from 10 J to 10⁵ J within a second, starting on the row between the
+// pins; the reverse of that order diverges alike, while coloring order and a random order, with the
+// same kernel and the same work, lose energy steadily, and ropes (no loops in their constraint
+// graph) are stable in either order. Within a color no two constraints share a free particle,
+// so a sweep carries a correction across at most one constraint per color (at most 15 on
+// the grid cloths). The price is a slower spread of corrections per sweep: the strain left after
+// one second is up to about twice that of the pool's order in the runs that order survives.
+// colored-gs runs this same order with each color in parallel, so it matches this reference up to
+// the rounding of its batched distance path. Needs pool.coloring current (the derived tables).
+template <class Kernel, class Pool>
+void solveGaussSeidel(Pool& pool, const SweepContext& context) {
+  const Real invH = 1 / context.h;
+  for (const Index c : pool.coloring.order)
+    if (sweep_detail::takesPart(pool, c, context))
+      sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH);
+}
+
+// Jacobi with mass splitting (Tonge et al. 2012): each constraint sees particle i with n_i times
+// its inverse mass (n_i = the family's constraints on i), as if i's mass were shared equally
+// among them; the gather then averages the copies, so that particle i moves by
+//   Δx_i = γ Σ_c w_i ∇_i C_c Δλ_c,
+// exactly the displacement that the multipliers account for. λ_c therefore accumulates γ Δλ_c,
+// and the compliance term −α̃λ stays consistent with the positions: with plain averaging,
+// particles move n_i times less than λ says, and a soft material comes out softer.
+//
+// On top of it, Chebyshev acceleration (jacobi_chebyshev.h): constraint c's slot becomes
+//   u_c = ω γ Δx_c + (ω − 1) u_c,prev,
+// the gather averaging u over the particle's slots. Only hard, undamped constraints are
+// accelerated: λ_c books the ω γ Δλ_c part of the move but not the carried (ω − 1) u_prev part,
+// which matters only where λ is read, that is where α > 0 (the −α̃λ term) — a soft or damped
+// constraint keeps ω = 1 and its λ stays exact. A constraint the object filter leaves out
+// writes zero and drops its history.
+//
+// Pools of hard, undamped distance constraints (the common inextensible cloth) take the
+// vertex-centric form of the same sweep instead (jacobi_vertex.h): each particle computes its
+// averaged move from its neighbours, with one Chebyshev history per particle in place of the
+// slots. The slot path writes and reads back two slots per constraint and was the slower
+// backend; measured side by side (BM_Sweep stretch, 256² hanging cloth, 2 threads, one 2-core
+// machine), the slot path ran 185 M projections/s, the vertex path 351 M/s and colored
+// Gauss–Seidel 295 M/s. Sweeps restricted to some objects keep the slot path, and since the two
+// keep their history in different places, a sweep that follows one of the other path restarts
+// the acceleration (runs plain).
+namespace sweep_detail {
+template <class Pool>
+NUCLEON_KERNEL bool acceleratable(const Pool& pool, std::size_t c) {
+  return pool.compliance[c] == 0 && pool.compressionCompliance[c] == 0 && pool.damping[c] == 0;
+}
+
+// The per-sweep factors of the Jacobi update: γ for unaccelerated constraints, ω γ and ω − 1 for
+// the accelerated ones.
+struct JacobiFactors {
+  Real relaxation = 1;  // γ
+  Real step = 1;        // ω γ
+  Real carry = 0;       // ω − 1; 0 on the plain sweeps, which then never read the old slots
+};
+
+template <class Kernel, class Pool>
+NUCLEON_KERNEL void jacobiOne(Pool& pool, std::size_t c, const SweepContext& context,
+                              const JacobiFactors& factors, Real invH) {
+  const std::size_t n = pool.arity();
+  Vec3* slot = pool.correction.data() + n * c;
+  if (!takesPart(pool, c, context)) {
+    for (std::size_t k = 0; k < n; ++k) slot[k].setZero();
+    return;
+  }
+  Vec3 dx[kMaxArity<Kernel>];
+  const Real deltaLambda = correct<Kernel>(pool, c, context.particles.p.data(), context.particles,
+                                           invH, dx, pool.splitInverseMass.data());
+  if (factors.carry != 0 && acceleratable(pool, c)) {
+    pool.lambda[c] += factors.step * deltaLambda;
+    for (std::size_t k = 0; k < n; ++k) {
+      // Adaptive restart: history that opposes this sweep's correction is an overshoot (a
+      // contact or another family pushed the particle back), and carrying it would extrapolate
+      // through that obstacle; such a slot restarts from the plain step.
+      const Real keep = dx[k].dot(slot[k]) >= 0 ? factors.carry : Real(0);
+      slot[k] = factors.step * dx[k] + keep * slot[k];
+    }
+  } else {
+    pool.lambda[c] += factors.relaxation * deltaLambda;
+    for (std::size_t k = 0; k < n; ++k) slot[k] = factors.relaxation * dx[k];
+  }
+}
+}  // namespace sweep_detail
+
+// Which form of the Jacobi sweep runs: the vertex-centric one wherever it applies (Automatic), or
+// the slot path always (Slots; the reference the tests compare the vertex path with).
+enum class JacobiPath { Automatic, Slots };
+
+template <class Kernel, unsigned Paths = kApplicablePaths, class Pool>
+void solveJacobi(Pool& pool, const SweepContext& context, JacobiPath path = JacobiPath::Automatic) {
+  const Real invH = 1 / context.h;
+  const Real omega = chebyshevWeight(context.jacobiSweeps.next(&pool), context.chebyshevRho);
+  sweep_detail::JacobiFactors factors;
+  factors.relaxation = context.relaxation;
+  factors.step = omega * context.relaxation;
+  factors.carry = omega - 1;
+  if constexpr ((Paths & kVertexJacobi) && std::is_same_v<Kernel, DistanceKernel>) {
+    if (path == JacobiPath::Automatic && !context.objectRuns && context.optimizedPaths &&
+        pool.vertexJacobi) {
+      // Every constraint is hard: all are accelerated, unless the history is in the slots.
+      const bool carries = factors.carry != 0 && pool.vertexHistory;
+      VertexJacobiStep step;
+      step.factor = carries ? factors.step : factors.relaxation;
+      const Real sheet = context.sheetRelaxation > 0 ? context.sheetRelaxation : context.relaxation;
+      step.sheetFactor = carries ? omega * sheet : sheet;
+      step.carry = carries ? factors.carry : Real(0);
+      solveDistanceJacobiVertex(pool.vertexRows, pool.vertexMove, pool.vertexLaneLambda,
+                                pool.lambda, context.particles.p, step);
+      pool.vertexHistory = true;
+      return;
+    }
+  }
+  if constexpr (requires { pool.vertexHistory; }) {
+    if (pool.vertexHistory) factors.carry = 0;  // the slots are stale: restart
+    pool.vertexHistory = false;
+  }
+  // Blocks of kDistanceBatchSize constraints from constraint 0, whatever the partitioning: which
+  // constraints take the batched path, and hence the rounding, never depends on the thread count.
+  const std::size_t blocks = (pool.size() + kDistanceBatchSize - 1) / kDistanceBatchSize;
+  bool batched = false;
+  DistanceJacobiBatch batch;
+  if constexpr ((Paths & kDistanceBatch) && std::is_base_of_v<DistanceKernel, Kernel>) {
+    // Undamped distance constraints: eight at a time (distance_batch.h), in place of the scalar
+    // loop below, whose result they equal up to rounding.
+    batched = !context.objectRuns && context.optimizedPaths && pool.undamped &&
+              distanceBatchesAvailable();
+    batch.particles = pool.particles.data();
+    batch.rest = pool.rest.data();
+    batch.compliance = pool.compliance.data();
+    batch.compressionCompliance = pool.compressionCompliance.data();
+    batch.lambda = pool.lambda.data();
+    batch.positions = context.particles.p.data();
+    batch.splitInverseMass = pool.splitInverseMass.data();
+    batch.correction = pool.correction.data();
+    batch.inverseH2 = invH * invH;
+    batch.unilateral = std::is_same_v<Kernel, TetherKernel>;
+    batch.relaxation = factors.relaxation;
+    batch.step = factors.step;
+    batch.carry = factors.carry;
+  }
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, blocks, sweep_detail::kGrain / kDistanceBatchSize),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        const std::size_t end = std::min(pool.size(), r.end() * kDistanceBatchSize);
+        std::size_t c = r.begin() * kDistanceBatchSize;
+        if (batched)
+          c = projectDistanceJacobiBatches(batch, static_cast<Index>(c), static_cast<Index>(end));
+        for (; c < end; ++c) sweep_detail::jacobiOne<Kernel>(pool, c, context, factors, invH);
+      });
+  gatherJacobiCorrections(pool.incidence, pool.correction, context.particles, Real(1));
+}
+
+template <class Kernel, unsigned Paths = kApplicablePaths, class Pool>
+void solveColored(Pool& pool, const SweepContext& context) {
+  const Real invH = 1 / context.h;
+  auto projectOne = [&](Index c) {
+    if (sweep_detail::takesPart(pool, c, context))
+      sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH);
+  };
+  if constexpr ((Paths & kDistanceBatch) && std::is_base_of_v<DistanceKernel, Kernel>) {
+    // Undamped distance constraints stored in color order: eight at a time (distance_batch.h).
+    if (!context.objectRuns && context.optimizedPaths && pool.undamped && pool.coloring.inPlace &&
+        distanceBatchesAvailable()) {
+      DistanceBatch batch;
+      batch.particles = pool.particles.data();
+      batch.rest = pool.rest.data();
+      batch.compliance = pool.compliance.data();
+      batch.compressionCompliance = pool.compressionCompliance.data();
+      batch.lambda = pool.lambda.data();
+      batch.positions = context.particles.p.data();
+      batch.inverseMass = context.particles.w.data();
+      batch.inverseH2 = invH * invH;
+      batch.unilateral = std::is_same_v<Kernel, TetherKernel>;
+      batch.endInverseMass = pool.endInverseMass.data();
+      forEachColorRange(
+          pool.coloring, sweep_detail::kGrain, kDistanceBatchSize,
+          [&](Index begin, Index end) {
+            for (Index c = projectDistanceBatches(batch, begin, end); c < end; ++c) projectOne(c);
+          },
+          projectOne);
+      return;
+    }
+  }
+  forEachColor(pool.coloring, sweep_detail::kGrain, projectOne);
+}
+
+// Runs one sweep of the given backend (the generic sweep, or a path of `Paths` where it applies).
+template <class Kernel, unsigned Paths = kApplicablePaths, class Pool>
+void solveSweep(SolverKind kind, Pool& pool, const SweepContext& context) {
+  if (pool.size() == 0) return;
+  switch (kind) {
+    case SolverKind::Jacobi:
+      solveJacobi<Kernel, Paths>(pool, context);
+      break;
+    case SolverKind::ColoredGaussSeidel:
+      solveColored<Kernel, Paths>(pool, context);
+      break;
+    default:
+      solveGaussSeidel<Kernel>(pool, context);
+      break;
+  }
+}
+
+}  // namespace nucleon

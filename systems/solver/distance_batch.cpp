@@ -1,0 +1,212 @@
+#include "systems/solver/distance_batch.h"
+
+#include <type_traits>
+
+// The batched path is written for float state on x86-64.
+#if (defined(__x86_64__) || defined(__i386__)) && !defined(NUCLEON_DOUBLE)
+#include <immintrin.h>
+#define NUCLEON_X86 1
+#endif
+
+namespace nucleon {
+
+#if NUCLEON_X86
+
+// The kernel reads positions as packed floats and gathers four-byte lanes.
+static_assert(std::is_same_v<Real, float>, "the batched distance path is float-only");
+
+namespace {
+
+// The XPBD step of eight distance constraints, shared by the colored and the Jacobi batches:
+// Δλ = (−C − α̃λ) / (w_a + w_b + α̃) and Δλ n = Δλ (x_a − x_b)/|x_a − x_b| share one division,
+// scale = (−C − α̃λ) / ((w_a + w_b + α̃) |x_a − x_b|) and Δλ = scale |x_a − x_b|. α̃ is the
+// stretch or the compression compliance over h², by the sign of C; lanes with a degenerate
+// edge, two fixed ends or (unilateral) a slack tether get scale 0.
+[[gnu::target("avx2,fma")]] inline __m256 multiplierScale(__m256 length, __m256 rest,
+                                                          __m256 stretchCompliance,
+                                                          __m256 compressionCompliance,
+                                                          __m256 lambda, __m256 wa, __m256 wb,
+                                                          __m256 inverseH2, bool unilateral) {
+  const __m256 tiny = _mm256_set1_ps(1e-12f), zero = _mm256_setzero_ps();
+  const __m256 constraint = _mm256_sub_ps(length, rest);
+  const __m256 below = _mm256_cmp_ps(constraint, zero, _CMP_LT_OQ);
+  const __m256 alpha =
+      _mm256_mul_ps(_mm256_blendv_ps(stretchCompliance, compressionCompliance, below), inverseH2);
+  const __m256 stiffness = _mm256_add_ps(wa, wb);
+  __m256 active = _mm256_and_ps(_mm256_cmp_ps(length, tiny, _CMP_GE_OQ),
+                                _mm256_cmp_ps(stiffness, tiny, _CMP_GE_OQ));
+  if (unilateral) active = _mm256_and_ps(active, _mm256_cmp_ps(constraint, zero, _CMP_GT_OQ));
+  const __m256 numerator = _mm256_sub_ps(zero, _mm256_fmadd_ps(alpha, lambda, constraint));
+  return _mm256_and_ps(_mm256_div_ps(numerator, _mm256_mul_ps(_mm256_add_ps(stiffness, alpha),
+                                                              _mm256_max_ps(length, tiny))),
+                       active);
+}
+
+[[gnu::target("avx2,fma")]] Index projectAvx2(const DistanceBatch& b, Index begin, Index end) {
+  const float* base = reinterpret_cast<const float*>(b.positions);
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 inverseH2 = _mm256_set1_ps(b.inverseH2);
+  // The pairs (a0 b0 a1 b1 a2 b2 a3 b3) become (a0 a1 a2 a3 b0 b1 b2 b3).
+  const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+  alignas(32) float ax[8], ay[8], az[8], bx[8], by[8], bz[8];
+  alignas(32) int ia[8], ib[8];
+  const bool hard = b.lambda == nullptr;  // no compliances, no multipliers
+  Index k = begin;
+  for (; k + 8 <= end; k += 8) {
+    const auto* pairs = reinterpret_cast<const __m256i*>(b.particles + k);
+    const __m256i low = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(pairs), split);
+    const __m256i high = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(pairs + 1), split);
+    const __m256i a = _mm256_permute2x128_si256(low, high, 0x20);
+    const __m256i c = _mm256_permute2x128_si256(low, high, 0x31);
+    const __m256i a3 = _mm256_add_epi32(_mm256_slli_epi32(a, 1), a);  // float offset of x_a
+    const __m256i c3 = _mm256_add_epi32(_mm256_slli_epi32(c, 1), c);
+    __m256 xa = _mm256_i32gather_ps(base, a3, 4), ya = _mm256_i32gather_ps(base + 1, a3, 4),
+           za = _mm256_i32gather_ps(base + 2, a3, 4);
+    __m256 xb = _mm256_i32gather_ps(base, c3, 4), yb = _mm256_i32gather_ps(base + 1, c3, 4),
+           zb = _mm256_i32gather_ps(base + 2, c3, 4);
+    __m256 wa, wb;
+    if (b.endInverseMass) {
+      const float* pairsOfW = reinterpret_cast<const float*>(b.endInverseMass + k);
+      const __m256 wLow = _mm256_permutevar8x32_ps(_mm256_loadu_ps(pairsOfW), split);
+      const __m256 wHigh = _mm256_permutevar8x32_ps(_mm256_loadu_ps(pairsOfW + 8), split);
+      wa = _mm256_permute2f128_ps(wLow, wHigh, 0x20);
+      wb = _mm256_permute2f128_ps(wLow, wHigh, 0x31);
+    } else {
+      wa = _mm256_i32gather_ps(b.inverseMass, a, 4);
+      wb = _mm256_i32gather_ps(b.inverseMass, c, 4);
+    }
+
+    const __m256 dx = _mm256_sub_ps(xa, xb), dy = _mm256_sub_ps(ya, yb), dz = _mm256_sub_ps(za, zb);
+    const __m256 length =
+        _mm256_sqrt_ps(_mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz))));
+    const __m256 lambda = hard ? zero : _mm256_loadu_ps(b.lambda + k);
+    const __m256 scale = multiplierScale(length, _mm256_loadu_ps(b.rest + k),
+                                         hard ? zero : _mm256_loadu_ps(b.compliance + k),
+                                         hard ? zero : _mm256_loadu_ps(b.compressionCompliance + k),
+                                         lambda, wa, wb, inverseH2, b.unilateral);
+    if (!hard) _mm256_storeu_ps(b.lambda + k, _mm256_fmadd_ps(scale, length, lambda));
+    const __m256 sa = _mm256_mul_ps(wa, scale), sb = _mm256_mul_ps(wb, scale);
+    _mm256_store_ps(ax, _mm256_fmadd_ps(sa, dx, xa));
+    _mm256_store_ps(ay, _mm256_fmadd_ps(sa, dy, ya));
+    _mm256_store_ps(az, _mm256_fmadd_ps(sa, dz, za));
+    _mm256_store_ps(bx, _mm256_fnmadd_ps(sb, dx, xb));
+    _mm256_store_ps(by, _mm256_fnmadd_ps(sb, dy, yb));
+    _mm256_store_ps(bz, _mm256_fnmadd_ps(sb, dz, zb));
+    _mm256_store_si256(reinterpret_cast<__m256i*>(ia), a);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(ib), c);
+    // Bit j set: that end of constraint j is free and is written back.
+    const int freeA = _mm256_movemask_ps(_mm256_cmp_ps(wa, zero, _CMP_NEQ_OQ));
+    const int freeB = _mm256_movemask_ps(_mm256_cmp_ps(wb, zero, _CMP_NEQ_OQ));
+    for (int j = 0; j < 8; ++j) {
+      if (freeA >> j & 1) b.positions[ia[j]] = Vec3(ax[j], ay[j], az[j]);
+      if (freeB >> j & 1) b.positions[ib[j]] = Vec3(bx[j], by[j], bz[j]);
+    }
+  }
+  return k;
+}
+
+// The Jacobi batch: the arithmetic of projectAvx2 with split inverse masses, the result written
+// to the constraints' slots. Positions are only read, so constraints may share particles.
+[[gnu::target("avx2,fma")]] Index projectJacobiAvx2(const DistanceJacobiBatch& b, Index begin,
+                                                    Index end) {
+  const float* base = reinterpret_cast<const float*>(b.positions);
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 inverseH2 = _mm256_set1_ps(b.inverseH2);
+  const __m256 relaxation = _mm256_set1_ps(b.relaxation), step = _mm256_set1_ps(b.step);
+  const __m256 carry = _mm256_set1_ps(b.carry);
+  const bool accelerated = b.carry != 0;
+  const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+  alignas(32) float ex[8], ey[8], ez[8], ga[8], gb[8], keep[8];
+  Index k = begin;
+  for (; k + 8 <= end; k += 8) {
+    const auto* pairs = reinterpret_cast<const __m256i*>(b.particles + k);
+    const __m256i low = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(pairs), split);
+    const __m256i high = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(pairs + 1), split);
+    const __m256i a = _mm256_permute2x128_si256(low, high, 0x20);
+    const __m256i c = _mm256_permute2x128_si256(low, high, 0x31);
+    const __m256i a3 = _mm256_add_epi32(_mm256_slli_epi32(a, 1), a);
+    const __m256i c3 = _mm256_add_epi32(_mm256_slli_epi32(c, 1), c);
+    const __m256 dx =
+        _mm256_sub_ps(_mm256_i32gather_ps(base, a3, 4), _mm256_i32gather_ps(base, c3, 4));
+    const __m256 dy =
+        _mm256_sub_ps(_mm256_i32gather_ps(base + 1, a3, 4), _mm256_i32gather_ps(base + 1, c3, 4));
+    const __m256 dz =
+        _mm256_sub_ps(_mm256_i32gather_ps(base + 2, a3, 4), _mm256_i32gather_ps(base + 2, c3, 4));
+    const __m256 wa = _mm256_i32gather_ps(b.splitInverseMass, a, 4);
+    const __m256 wb = _mm256_i32gather_ps(b.splitInverseMass, c, 4);
+
+    const __m256 length =
+        _mm256_sqrt_ps(_mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz))));
+    const __m256 stretchCompliance = _mm256_loadu_ps(b.compliance + k);
+    const __m256 compressionCompliance = _mm256_loadu_ps(b.compressionCompliance + k);
+    const __m256 lambda = _mm256_loadu_ps(b.lambda + k);
+    const __m256 scale =
+        multiplierScale(length, _mm256_loadu_ps(b.rest + k), stretchCompliance,
+                        compressionCompliance, lambda, wa, wb, inverseH2, b.unilateral);
+    // Hard constraints (both compliances 0) are accelerated on the accelerated sweeps.
+    __m256 hard = _mm256_and_ps(_mm256_cmp_ps(stretchCompliance, zero, _CMP_EQ_OQ),
+                                _mm256_cmp_ps(compressionCompliance, zero, _CMP_EQ_OQ));
+    if (!accelerated) hard = zero;
+    const __m256 factor = _mm256_blendv_ps(relaxation, step, hard);
+    _mm256_storeu_ps(b.lambda + k, _mm256_fmadd_ps(_mm256_mul_ps(factor, scale), length, lambda));
+    const __m256 scaled = _mm256_mul_ps(factor, scale);
+    _mm256_store_ps(ga, _mm256_mul_ps(wa, scaled));
+    _mm256_store_ps(gb, _mm256_mul_ps(wb, scaled));
+    _mm256_store_ps(keep, _mm256_and_ps(carry, hard));
+    _mm256_store_ps(ex, dx);
+    _mm256_store_ps(ey, dy);
+    _mm256_store_ps(ez, dz);
+    Vec3* slot = b.correction + 2 * k;
+    for (int j = 0; j < 8; ++j, slot += 2) {
+      const Vec3 e(ex[j], ey[j], ez[j]);
+      if (keep[j] != 0) {
+        // Adaptive restart per slot, as in the scalar path (constraint_sweeps.h).
+        const Vec3 ua = ga[j] * e, ub = -gb[j] * e;
+        slot[0] = ua + (ua.dot(slot[0]) >= 0 ? keep[j] : 0.0f) * slot[0];
+        slot[1] = ub + (ub.dot(slot[1]) >= 0 ? keep[j] : 0.0f) * slot[1];
+      } else {
+        slot[0] = ga[j] * e;
+        slot[1] = -gb[j] * e;
+      }
+    }
+  }
+  return k;
+}
+
+bool cpuHasAvx2Fma() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+}
+
+}  // namespace
+
+bool distanceBatchesAvailable() {
+  static const bool available = cpuHasAvx2Fma();  // a property of the CPU, read once
+  return available;
+}
+
+Index projectDistanceBatches(const DistanceBatch& batch, Index begin, Index end) {
+  return distanceBatchesAvailable() ? projectAvx2(batch, begin, end) : begin;
+}
+
+Index projectDistanceJacobiBatches(const DistanceJacobiBatch& batch, Index begin, Index end) {
+  return distanceBatchesAvailable() ? projectJacobiAvx2(batch, begin, end) : begin;
+}
+
+#else
+
+bool distanceBatchesAvailable() {
+  return false;
+}
+
+Index projectDistanceBatches(const DistanceBatch&, Index begin, Index) {
+  return begin;
+}
+
+Index projectDistanceJacobiBatches(const DistanceJacobiBatch&, Index begin, Index) {
+  return begin;
+}
+
+#endif
+
+}  // namespace nucleon

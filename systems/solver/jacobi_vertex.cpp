@@ -1,0 +1,243 @@
+#include "systems/solver/jacobi_vertex.h"
+
+#include <algorithm>
+#include <type_traits>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "systems/solver/distance_batch.h"
+
+// The batched path is written for float state on x86-64, like distance_batch.cpp's.
+#if (defined(__x86_64__) || defined(__i386__)) && !defined(NUCLEON_DOUBLE)
+#include <immintrin.h>
+#define NUCLEON_VERTEX_X86 1
+#endif
+
+namespace nucleon {
+namespace {
+
+constexpr Index kLanes = VertexSlotRows::kLanes;
+// Edges shorter than this, or with both ends fixed, get no correction (as in distance_batch.cpp).
+constexpr Real kTiny = Real(1e-12);
+
+// Pass 1 for the particles of block b, one at a time: the arithmetic of moveBlocksAvx2 below.
+void moveBlockScalar(const VertexSlotRows& rows, std::size_t b, std::span<const Vec3> positions,
+                     Real* move, Real* laneLambda, const VertexJacobiStep& step) {
+  for (Index lane = 0; lane < kLanes; ++lane) {
+    const std::size_t i = kLanes * b + lane;
+    if (i >= positions.size()) break;
+    const Vec3 own = positions[i];
+    const Real ownW = rows.splitInverseMass[i];
+    const Real factor = rows.sheet[i] != 0 ? step.sheetFactor : step.factor;
+    Vec3 sum = Vec3::Zero();
+    for (Index r = rows.blockRow[b]; r < rows.blockRow[b + 1]; ++r) {
+      const std::size_t at = kLanes * r + lane;
+      const Vec3 d = own - positions[rows.other[at]];
+      const Real length = d.norm();
+      const Real stiffness = ownW + rows.otherSplitInverseMass[at];
+      laneLambda[at] = 0;
+      if (!(length >= kTiny) || !(stiffness >= kTiny)) continue;
+      const Real s = (rows.rest[at] - length) / (stiffness * length);
+      sum += s * d;
+      laneLambda[at] = factor * s * length;
+    }
+    Vec3 m = (factor * rows.inverseMass[i]) * sum;
+    Real* history = move + 3 * kLanes * b + lane;
+    if (step.carry != 0) {
+      const Vec3 previous(history[0], history[kLanes], history[2 * kLanes]);
+      // Adaptive restart, per particle (the slot path's rule, constraint_sweeps.h).
+      if (m.dot(previous) >= 0) m += step.carry * previous;
+    }
+    history[0] = m.x();
+    history[kLanes] = m.y();
+    history[2 * kLanes] = m.z();
+  }
+}
+
+#if NUCLEON_VERTEX_X86
+
+static_assert(std::is_same_v<Real, float>, "the batched vertex path is float-only");
+
+// Pass 1 for blocks [begin, end), eight particles at a time. Per row: three gathers of the
+// neighbours' positions, three contiguous loads (other, rest, W_j) and one store (the multiplier
+// step), against the slot path's two Vec3 slot writes and reads per constraint.
+[[gnu::target("avx2,fma")]] void moveBlocksAvx2(const VertexSlotRows& rows,
+                                                std::span<const Vec3> positions, float* move,
+                                                float* laneLambda, const VertexJacobiStep& step,
+                                                std::size_t begin, std::size_t end) {
+  const float* base = reinterpret_cast<const float*>(positions.data());
+  const __m256i laneIndex = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i lastParticle = _mm256_set1_epi32(static_cast<int>(positions.size()) - 1);
+  const __m256 tiny = _mm256_set1_ps(kTiny), zero = _mm256_setzero_ps();
+  const __m256 chainFactor = _mm256_set1_ps(step.factor), carry = _mm256_set1_ps(step.carry);
+  const __m256 sheetExtra = _mm256_set1_ps(step.sheetFactor - step.factor);
+  const bool accelerated = step.carry != 0;
+  for (std::size_t b = begin; b < end; ++b) {
+    // Per particle: the chain factor, plus the sheet's extra where rows.sheet is 1.
+    const __m256 factor =
+        _mm256_fmadd_ps(sheetExtra, _mm256_loadu_ps(rows.sheet.data() + kLanes * b), chainFactor);
+    // Lanes past the last particle read the last particle (their rows are all padding).
+    const __m256i own = _mm256_min_epi32(
+        _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(kLanes * b)), laneIndex), lastParticle);
+    const __m256i own3 = _mm256_add_epi32(_mm256_slli_epi32(own, 1), own);
+    const __m256 xi = _mm256_i32gather_ps(base, own3, 4);
+    const __m256 yi = _mm256_i32gather_ps(base + 1, own3, 4);
+    const __m256 zi = _mm256_i32gather_ps(base + 2, own3, 4);
+    const __m256 ownW = _mm256_loadu_ps(rows.splitInverseMass.data() + kLanes * b);
+    __m256 sx = zero, sy = zero, sz = zero;
+    for (Index r = rows.blockRow[b]; r < rows.blockRow[b + 1]; ++r) {
+      const std::size_t at = kLanes * r;
+      const __m256i other =
+          _mm256_loadu_si256(reinterpret_cast<const __m256i*>(rows.other.data() + at));
+      const __m256i other3 = _mm256_add_epi32(_mm256_slli_epi32(other, 1), other);
+      const __m256 dx = _mm256_sub_ps(xi, _mm256_i32gather_ps(base, other3, 4));
+      const __m256 dy = _mm256_sub_ps(yi, _mm256_i32gather_ps(base + 1, other3, 4));
+      const __m256 dz = _mm256_sub_ps(zi, _mm256_i32gather_ps(base + 2, other3, 4));
+      const __m256 length =
+          _mm256_sqrt_ps(_mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz))));
+      const __m256 stiffness =
+          _mm256_add_ps(ownW, _mm256_loadu_ps(rows.otherSplitInverseMass.data() + at));
+      const __m256 active = _mm256_and_ps(_mm256_cmp_ps(length, tiny, _CMP_GE_OQ),
+                                          _mm256_cmp_ps(stiffness, tiny, _CMP_GE_OQ));
+      // s = −C / ((W_i + W_j) |d|), C = |d| − L: multiplierScale of distance_batch.cpp at α = 0.
+      const __m256 s =
+          _mm256_and_ps(_mm256_div_ps(_mm256_sub_ps(_mm256_loadu_ps(rows.rest.data() + at), length),
+                                      _mm256_mul_ps(stiffness, _mm256_max_ps(length, tiny))),
+                        active);
+      sx = _mm256_fmadd_ps(s, dx, sx);
+      sy = _mm256_fmadd_ps(s, dy, sy);
+      sz = _mm256_fmadd_ps(s, dz, sz);
+      _mm256_storeu_ps(laneLambda + at, _mm256_mul_ps(_mm256_mul_ps(factor, s), length));
+    }
+    const __m256 scale =
+        _mm256_mul_ps(factor, _mm256_loadu_ps(rows.inverseMass.data() + kLanes * b));
+    __m256 mx = _mm256_mul_ps(scale, sx), my = _mm256_mul_ps(scale, sy),
+           mz = _mm256_mul_ps(scale, sz);
+    float* history = move + 3 * kLanes * b;
+    if (accelerated) {
+      const __m256 px = _mm256_loadu_ps(history), py = _mm256_loadu_ps(history + kLanes),
+                   pz = _mm256_loadu_ps(history + 2 * kLanes);
+      const __m256 dot = _mm256_fmadd_ps(mx, px, _mm256_fmadd_ps(my, py, _mm256_mul_ps(mz, pz)));
+      const __m256 keep = _mm256_and_ps(carry, _mm256_cmp_ps(dot, zero, _CMP_GE_OQ));
+      mx = _mm256_fmadd_ps(keep, px, mx);
+      my = _mm256_fmadd_ps(keep, py, my);
+      mz = _mm256_fmadd_ps(keep, pz, mz);
+    }
+    _mm256_storeu_ps(history, mx);
+    _mm256_storeu_ps(history + kLanes, my);
+    _mm256_storeu_ps(history + 2 * kLanes, mz);
+  }
+}
+
+// Pass 2's multipliers for constraints [begin, end), eight at a time: λ_c += the value of c's
+// end-0 lane. Returns the first constraint left to the caller.
+[[gnu::target("avx2,fma")]] std::size_t bookLambdaAvx2(const VertexSlotRows& rows,
+                                                       const float* laneLambda, float* lambda,
+                                                       std::size_t begin, std::size_t end) {
+  std::size_t c = begin;
+  for (; c + kLanes <= end; c += kLanes) {
+    const __m256i lane =
+        _mm256_loadu_si256(reinterpret_cast<const __m256i*>(rows.lambdaLane.data() + c));
+    _mm256_storeu_ps(lambda + c, _mm256_add_ps(_mm256_loadu_ps(lambda + c),
+                                               _mm256_i32gather_ps(laneLambda, lane, 4)));
+  }
+  return c;
+}
+
+#endif
+
+}  // namespace
+
+VertexSlotRows buildVertexSlotRows(std::span<const std::array<Index, 2>> constraints,
+                                   std::span<const Real> rest, const ParticleIncidence& incidence,
+                                   std::span<const Real> splitInverseMass) {
+  VertexSlotRows rows;
+  const std::size_t n = incidence.offset.size() - 1;
+  const std::size_t blocks = (n + kLanes - 1) / kLanes;
+  auto slotsOf = [&](std::size_t i) { return incidence.offset[i + 1] - incidence.offset[i]; };
+  rows.blockRow.assign(blocks + 1, 0);
+  for (std::size_t b = 0; b < blocks; ++b) {
+    Index most = 0;
+    for (std::size_t i = kLanes * b; i < std::min(n, kLanes * (b + 1)); ++i)
+      most = std::max(most, slotsOf(i));
+    rows.blockRow[b + 1] = rows.blockRow[b] + most;
+  }
+  const std::size_t lanes = std::size_t{kLanes} * rows.blockRow[blocks];
+  rows.other.assign(lanes, 0);
+  rows.rest.assign(lanes, 0);
+  rows.otherSplitInverseMass.assign(lanes, 0);
+  rows.lambdaLane.assign(constraints.size(), 0);
+  rows.splitInverseMass.assign(kLanes * blocks, 0);
+  rows.inverseMass.assign(kLanes * blocks, 0);
+  rows.sheet.assign(kLanes * blocks, 0);
+  for (std::size_t b = 0; b < blocks; ++b)
+    for (Index lane = 0; lane < kLanes; ++lane) {
+      const std::size_t i = kLanes * b + lane;
+      // Padding: a zero-length edge from the lane's particle (the last one past the end) to
+      // itself, which the sweep leaves without correction.
+      const auto own = static_cast<Index>(std::min(i, n - 1));
+      for (Index r = rows.blockRow[b]; r < rows.blockRow[b + 1]; ++r)
+        rows.other[kLanes * r + lane] = own;
+      if (i >= n) continue;
+      const Index count = slotsOf(i);
+      rows.splitInverseMass[i] = splitInverseMass[i];
+      rows.inverseMass[i] = count == 0 ? Real(0) : splitInverseMass[i] / Real(count);
+      rows.sheet[i] = count >= VertexSlotRows::kSheetSlots ? Real(1) : Real(0);
+      for (Index k = 0; k < count; ++k) {
+        const Index slot = incidence.slot[incidence.offset[i] + k];
+        const Index c = slot / 2, end = slot % 2;
+        const Index j = constraints[c][1 - end];
+        const std::size_t at = kLanes * (rows.blockRow[b] + k) + lane;
+        rows.other[at] = j;
+        rows.rest[at] = rest[c];
+        rows.otherSplitInverseMass[at] = splitInverseMass[j];
+        if (end == 0) rows.lambdaLane[c] = static_cast<Index>(at);
+      }
+    }
+  return rows;
+}
+
+void solveDistanceJacobiVertex(const VertexSlotRows& rows, std::span<Real> move,
+                               std::span<Real> laneLambda, std::span<Real> lambda,
+                               std::span<Vec3> positions, const VertexJacobiStep& step) {
+  const std::size_t blocks = rows.blockCount();
+  const std::span<const Vec3> p = positions;
+  // Pass 1: every particle's move from the same positions, into the history, and every slot's
+  // multiplier step.
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 64),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+#if NUCLEON_VERTEX_X86
+                      if (distanceBatchesAvailable()) {
+                        moveBlocksAvx2(rows, p, move.data(), laneLambda.data(), step, r.begin(),
+                                       r.end());
+                        return;
+                      }
+#endif
+                      for (std::size_t b = r.begin(); b != r.end(); ++b)
+                        moveBlockScalar(rows, b, p, move.data(), laneLambda.data(), step);
+                    });
+  // Pass 2: the moves, and the multipliers of the constraints in the same proportion of the
+  // pool as the range's blocks are of the particles (each constraint in exactly one range).
+  const std::size_t constraints = lambda.size();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 256),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t b = r.begin(); b != r.end(); ++b) {
+                        const Real* history = move.data() + 3 * kLanes * b;
+                        const std::size_t count =
+                            std::min<std::size_t>(kLanes, positions.size() - kLanes * b);
+                        for (std::size_t lane = 0; lane < count; ++lane)
+                          positions[kLanes * b + lane] += Vec3(
+                              history[lane], history[kLanes + lane], history[2 * kLanes + lane]);
+                      }
+                      const std::size_t end = r.end() * constraints / blocks;
+                      std::size_t c = r.begin() * constraints / blocks;
+#if NUCLEON_VERTEX_X86
+                      if (distanceBatchesAvailable())
+                        c = bookLambdaAvx2(rows, laneLambda.data(), lambda.data(), c, end);
+#endif
+                      for (; c < end; ++c) lambda[c] += laneLambda[rows.lambdaLane[c]];
+                    });
+}
+
+}  // namespace nucleon
