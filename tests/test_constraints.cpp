@@ -5,6 +5,7 @@
 
 #include <random>
 
+#include "nucleon/constraint_family.h"
 #include "systems/solver/constraint_kernels.h"
 
 using namespace nucleon;
@@ -146,6 +147,24 @@ TEST(DihedralKernel, GradientMatchesFiniteDifferences) {
 }
 TEST(VolumeKernel, GradientMatchesFiniteDifferences) {
   checkRandomGradients<VolumeKernel>();
+}
+
+// Every kernel of the family table, whatever families it holds: a family added to the table is
+// checked here without a new test.
+TEST(FamilyTable, EveryKernelsGradientMatchesFiniteDifferences) {
+  int kernels = 0;
+#define NUCLEON_POOL(member, arity, Kernel, paths)                          \
+  {                                                                         \
+    SCOPED_TRACE(#member);                                                  \
+    static_assert(Kernel::kArity == (arity), "the table's arity is wrong"); \
+    checkRandomGradients<Kernel>();                                         \
+    ++kernels;                                                              \
+  }
+#define NUCLEON_FAMILY_POOLS(enumerator, name, pools) pools
+  NUCLEON_CONSTRAINT_FAMILIES(NUCLEON_FAMILY_POOLS)
+#undef NUCLEON_FAMILY_POOLS
+#undef NUCLEON_POOL
+  EXPECT_EQ(kernels, 7);  // the pools of the six built-in families (bend has two)
 }
 
 TEST(DihedralKernel, FlatHingeHasZeroAngleAndAWellDefinedGradient) {

@@ -3,6 +3,8 @@
 // scene gives the same state for one and two threads under every backend.
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -53,6 +55,29 @@ TEST(StepGraph, OrdersConflictingStagesAndRunsIndependentOnesSideBySide) {
 
 // A cloth resting flat on the ground has the same contacts every substep: once warm, the pool is
 // refilled into the same storage (no allocation in the step).
+// The step diagram in ARCHITECTURE.md names every stage of the graph: a stage added to the code
+// without its place in the diagram fails here.
+TEST(StepGraph, ArchitectureDiagramNamesEveryStage) {
+  const std::filesystem::path map =
+      std::filesystem::path(NUCLEON_ASSETS_DIR).parent_path() / "ARCHITECTURE.md";
+  std::ifstream in(map);
+  ASSERT_TRUE(in) << map;
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string doc = text.str();
+  const std::size_t begin = doc.find("### Step graph");
+  ASSERT_NE(begin, std::string::npos) << "ARCHITECTURE.md has no 'Step graph' section";
+  const std::size_t end = doc.find("\n#", begin + 1);
+  const std::string section = doc.substr(begin, end == std::string::npos ? end : end - begin);
+  ASSERT_FALSE(StepGraph::stages().empty());
+  for (const StageDeclaration& stage : StepGraph::stages()) {
+    std::string quoted(1, '"');
+    quoted.append(stage.name).push_back('"');
+    EXPECT_NE(section.find(quoted), std::string::npos)
+        << "the step diagram does not name the stage " << quoted;
+  }
+}
+
 TEST(ContactPool, IsRefilledEverySubstepIntoTheSameStorage) {
   GridSpec spec;
   spec.resolution = {16, 16};

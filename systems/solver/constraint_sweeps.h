@@ -186,6 +186,8 @@ void solveGaussSeidel(Pool& pool, const SweepContext& context) {
 namespace sweep_detail {
 template <class Pool>
 NUCLEON_KERNEL bool acceleratable(const Pool& pool, std::size_t c) {
+  if constexpr (requires { pool.family.jacobiAcceleration; })
+    if (!pool.family.jacobiAcceleration) return false;
   return pool.compliance[c] == 0 && pool.compressionCompliance[c] == 0 && pool.damping[c] == 0;
 }
 

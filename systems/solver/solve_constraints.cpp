@@ -47,6 +47,12 @@ double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const S
   pools.forEach([](auto& pool) { std::fill(pool.lambda.begin(), pool.lambda.end(), Real(0)); });
   SweepContext context{particles, h, settings.relaxation, nullptr};
   context.chebyshevRho = settings.chebyshevRho;
+  // A registered family that did not opt into Jacobi's acceleration turns it off for every
+  // family: extrapolated stretch against a hard, unaccelerated constraint on the same particles
+  // was seen to diverge (a cloth corner held on a plane, double build), and plain Jacobi
+  // converges, only more slowly.
+  for (const UserConstraintPool& pool : pools.user)
+    if (pool.size() > 0 && !pool.family.jacobiAcceleration) context.chebyshevRho = 0;
   context.sheetRelaxation = settings.sheetRelaxation;
   context.optimizedPaths = settings.optimizedPaths;
   double contactSeconds = 0;
