@@ -693,9 +693,7 @@ void World::addConstraint(ObjectId object, ConstraintFamily family,
   pool.compressionCompliance.push_back(below);
   pool.damping.push_back(compliance.damping);
   pool.lambda.push_back(0);
-  // A pool in color order takes the new constraint at its end: the derived tables color it anew.
-  pool.coloring.inPlace = false;
-  s.topologyDirty = true;
+  s.topologyDirty = true;  // the derived tables color the pool anew
 }
 
 Measures World::measure() const {

@@ -9,12 +9,6 @@ namespace {
 constexpr int kMaxColors = 64;  // one bit per color in a particle's mask
 }
 
-template <std::size_t N>
-ParticleTuples tuplesOf(std::span<const std::array<Index, N>> constraints) {
-  static_assert(sizeof(std::array<Index, N>) == N * sizeof(Index), "tuples must be packed");
-  return {constraints.empty() ? nullptr : constraints.front().data(), N, constraints.size()};
-}
-
 ParticleIncidence buildIncidence(const ParticleTuples& constraints, std::size_t particleCount) {
   const std::size_t n = constraints.arity;
   ParticleIncidence out;
@@ -86,58 +80,6 @@ bool validateColoring(const ConstraintColoring& coloring, const ParticleTuples& 
       }
     }
   return true;
-}
-
-template <>
-ParticleIncidence buildIncidence<2>(std::span<const std::array<Index, 2>> constraints,
-                                    std::size_t particleCount) {
-  return buildIncidence(tuplesOf(constraints), particleCount);
-}
-template <>
-ConstraintColoring colorConstraints<2>(std::span<const std::array<Index, 2>> constraints,
-                                       std::size_t particleCount,
-                                       std::span<const Real> inverseMass) {
-  return colorConstraints(tuplesOf(constraints), particleCount, inverseMass);
-}
-template <>
-bool validateColoring<2>(const ConstraintColoring& coloring,
-                         std::span<const std::array<Index, 2>> constraints,
-                         std::size_t particleCount, std::span<const Real> inverseMass) {
-  return validateColoring(coloring, tuplesOf(constraints), particleCount, inverseMass);
-}
-template <>
-ParticleIncidence buildIncidence<3>(std::span<const std::array<Index, 3>> constraints,
-                                    std::size_t particleCount) {
-  return buildIncidence(tuplesOf(constraints), particleCount);
-}
-template <>
-ConstraintColoring colorConstraints<3>(std::span<const std::array<Index, 3>> constraints,
-                                       std::size_t particleCount,
-                                       std::span<const Real> inverseMass) {
-  return colorConstraints(tuplesOf(constraints), particleCount, inverseMass);
-}
-template <>
-bool validateColoring<3>(const ConstraintColoring& coloring,
-                         std::span<const std::array<Index, 3>> constraints,
-                         std::size_t particleCount, std::span<const Real> inverseMass) {
-  return validateColoring(coloring, tuplesOf(constraints), particleCount, inverseMass);
-}
-template <>
-ParticleIncidence buildIncidence<4>(std::span<const std::array<Index, 4>> constraints,
-                                    std::size_t particleCount) {
-  return buildIncidence(tuplesOf(constraints), particleCount);
-}
-template <>
-ConstraintColoring colorConstraints<4>(std::span<const std::array<Index, 4>> constraints,
-                                       std::size_t particleCount,
-                                       std::span<const Real> inverseMass) {
-  return colorConstraints(tuplesOf(constraints), particleCount, inverseMass);
-}
-template <>
-bool validateColoring<4>(const ConstraintColoring& coloring,
-                         std::span<const std::array<Index, 4>> constraints,
-                         std::size_t particleCount, std::span<const Real> inverseMass) {
-  return validateColoring(coloring, tuplesOf(constraints), particleCount, inverseMass);
 }
 
 }  // namespace nucleon

@@ -20,8 +20,7 @@ ParticleTuples tuplesOfPool(const Pool& pool) {
   if constexpr (std::is_same_v<Pool, UserConstraintPool>)
     return {pool.particles.data(), pool.arity(), pool.size()};
   else
-    return {pool.particles.empty() ? nullptr : pool.particles.front().data(), Pool::kArity,
-            pool.size()};
+    return tuplesOf(std::span<const std::array<Index, Pool::kArity>>(pool.particles));
 }
 
 }  // namespace
