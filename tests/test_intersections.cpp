@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <span>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -17,7 +18,6 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/app/cli.h"
-#include "engine/src/world_state.h"
 #include "nucleon/scene.h"
 #include "nucleon/shapes.h"
 #include "nucleon/world.h"
@@ -63,7 +63,7 @@ bool shareVertex(const Tri& a, const Tri& b) {
 }
 
 // The definition, pair by pair.
-std::size_t bruteForceCount(const std::vector<Tri>& triangles, const std::vector<Vec3>& x) {
+std::size_t bruteForceCount(const std::vector<Tri>& triangles, std::span<const Vec3> x) {
   std::size_t count = 0;
   for (std::size_t i = 0; i < triangles.size(); ++i)
     for (std::size_t j = i + 1; j < triangles.size(); ++j) {
@@ -415,7 +415,7 @@ TEST(Measures, IntersectionsOverAllObjectsInGlobalIndices) {
       all.push_back({first + t[0], first + t[1], first + t[2]});
     first += static_cast<Index>(world.positions(world.objectAt(i)).size());
   }
-  EXPECT_EQ(count, bruteForceCount(all, world.impl().state.particles.x));
+  EXPECT_EQ(count, bruteForceCount(all, world.positions()));
 }
 
 TEST(Measures, RunStatsReportIntersectionsEveryFrame) {

@@ -2,7 +2,6 @@
 // restrict sweeps to their objects, and bad schedules are rejected.
 #include <gtest/gtest.h>
 
-#include "engine/src/world_state.h"
 #include "nucleon/scene.h"
 #include "nucleon/shapes.h"
 #include "sim_test_context.h"

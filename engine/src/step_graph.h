@@ -1,9 +1,9 @@
-// The substep as a oneTBB flow graph of systems, built from what each system reads and writes.
-//
-//   forces ──► animate ──┬──► predict ─────────┬──► solve ──► update ──► finish animation
-//              (v of the  │   (p = x + h v)     │   (sweeps of the plan;    (animated colliders'
-//              animated   └──► detect contacts ─┘    contacts projected      x, p ← their
-//              colliders)     (contact pool from x, v)  after each round)   substep targets)
+// The substep as a oneTBB flow graph of systems, built from what each system reads and writes:
+// "forces", "animate", "predict", "detect contacts", "detect collisions", "solve", "update",
+// "finish animation". The diagram with each stage's reads and writes is ARCHITECTURE.md §5, "Step
+// graph" (a test checks it names every stage). Every stage receives the substep's
+// SubstepContext; the "solve" stage is one call to the solve orchestrator
+// (systems/solver/solve_constraints.h), which never calls back into the graph.
 //
 // Every stage declares the pools it reads and writes (kStages in step_graph.cpp); the
 // constructor adds an edge from an earlier stage to a later one wherever the two conflict (one
@@ -21,6 +21,7 @@
 #include <tbb/flow_graph.h>
 
 #include "nucleon/types.h"
+#include "systems/substep_context.h"
 
 namespace nucleon {
 
@@ -61,9 +62,8 @@ class StepGraph {
   explicit StepGraph(WorldState& state);
   StepGraph(const StepGraph&) = delete;
   StepGraph& operator=(const StepGraph&) = delete;
-  // Runs one substep of length h; call inside the world's task arena. `step` is the 1-based
-  // number of the step the substep belongs to (for the repair log).
-  void runSubstep(Real h, std::uint64_t step);
+  // Runs one substep; call inside the world's task arena. Every stage receives `context`.
+  void runSubstep(const SubstepContext& context);
 
   // The stages in declaration order and the edges the constructor derived, for tests and docs.
   static std::span<const StageDeclaration> stages();
@@ -73,8 +73,7 @@ class StepGraph {
   using Node = tbb::flow::continue_node<tbb::flow::continue_msg>;
   void runStage(int stage);
   WorldState& state_;
-  Real h_ = 0;
-  std::uint64_t step_ = 0;
+  SubstepContext context_;
   tbb::flow::graph graph_;
   tbb::flow::broadcast_node<tbb::flow::continue_msg> start_;
   std::vector<std::unique_ptr<Node>> nodes_;

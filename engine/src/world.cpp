@@ -507,18 +507,21 @@ void World::step(double dt) {
   impl.arena->execute([&] {
     // The graph is made inside the arena so that its tasks run on the arena's threads.
     if (!impl.graph) impl.graph = std::make_unique<StepGraph>(impl.state);
-    const Real h = static_cast<Real>(dt / impl.state.solver.substeps);
-    ++impl.state.stepCount;
-    const int substeps = impl.state.solver.substeps;
+    SubstepContext context;
+    context.h = static_cast<Real>(dt / impl.state.solver.substeps);
+    context.inverseH = 1 / context.h;
+    context.substeps = impl.state.solver.substeps;
+    context.step = ++impl.state.stepCount;
     const double stepStart = impl.state.time;
-    for (int i = 0; i < substeps; ++i) {
+    for (int i = 0; i < context.substeps; ++i) {
+      context.substep = i;
+      context.time = impl.state.time;
       // From the step's start rather than summed substep by substep, so that the step ends
       // exactly at start + dt.
-      impl.state.substep = i;
-      impl.state.substepEnd =
-          i + 1 == substeps ? stepStart + dt : stepStart + dt * (i + 1) / substeps;
-      impl.graph->runSubstep(h, impl.state.stepCount);
-      impl.state.time = impl.state.substepEnd;
+      context.endTime =
+          i + 1 == context.substeps ? stepStart + dt : stepStart + dt * (i + 1) / context.substeps;
+      impl.graph->runSubstep(context);
+      impl.state.time = context.endTime;
     }
   });
   ++impl.state.profile.steps;

@@ -57,10 +57,8 @@ struct WorldState {
   Recoveries recoveries;        // repairs since creation
   std::uint64_t stepCount = 0;  // steps taken since creation
   // Simulated seconds since creation, advanced after every substep; animations are functions of
-  // it. The substep being run is `substep` (from 0) of its step, ending at `substepEnd`.
+  // it. The substep being run, with its place in time, is the step graph's SubstepContext.
   double time = 0;
-  int substep = 0;
-  double substepEnd = 0;
   StepProfile profile;  // the engine's own per-stage timing
 };
 

@@ -2,45 +2,18 @@
 
 #include <type_traits>
 
-// The batched path is written for float state on x86-64.
-#if (defined(__x86_64__) || defined(__i386__)) && !defined(NUCLEON_DOUBLE)
-#include <immintrin.h>
-#define NUCLEON_X86 1
-#endif
+#include "systems/solver/distance_lanes.h"
 
 namespace nucleon {
 
-#if NUCLEON_X86
+#if NUCLEON_DISTANCE_LANES
 
 // The kernel reads positions as packed floats and gathers four-byte lanes.
 static_assert(std::is_same_v<Real, float>, "the batched distance path is float-only");
 
 namespace {
 
-// The XPBD step of eight distance constraints, shared by the colored and the Jacobi batches:
-// Δλ = (−C − α̃λ) / (w_a + w_b + α̃) and Δλ n = Δλ (x_a − x_b)/|x_a − x_b| share one division,
-// scale = (−C − α̃λ) / ((w_a + w_b + α̃) |x_a − x_b|) and Δλ = scale |x_a − x_b|. α̃ is the
-// stretch or the compression compliance over h², by the sign of C; lanes with a degenerate
-// edge, two fixed ends or (unilateral) a slack tether get scale 0.
-[[gnu::target("avx2,fma")]] inline __m256 multiplierScale(__m256 length, __m256 rest,
-                                                          __m256 stretchCompliance,
-                                                          __m256 compressionCompliance,
-                                                          __m256 lambda, __m256 wa, __m256 wb,
-                                                          __m256 inverseH2, bool unilateral) {
-  const __m256 tiny = _mm256_set1_ps(1e-12f), zero = _mm256_setzero_ps();
-  const __m256 constraint = _mm256_sub_ps(length, rest);
-  const __m256 below = _mm256_cmp_ps(constraint, zero, _CMP_LT_OQ);
-  const __m256 alpha =
-      _mm256_mul_ps(_mm256_blendv_ps(stretchCompliance, compressionCompliance, below), inverseH2);
-  const __m256 stiffness = _mm256_add_ps(wa, wb);
-  __m256 active = _mm256_and_ps(_mm256_cmp_ps(length, tiny, _CMP_GE_OQ),
-                                _mm256_cmp_ps(stiffness, tiny, _CMP_GE_OQ));
-  if (unilateral) active = _mm256_and_ps(active, _mm256_cmp_ps(constraint, zero, _CMP_GT_OQ));
-  const __m256 numerator = _mm256_sub_ps(zero, _mm256_fmadd_ps(alpha, lambda, constraint));
-  return _mm256_and_ps(_mm256_div_ps(numerator, _mm256_mul_ps(_mm256_add_ps(stiffness, alpha),
-                                                              _mm256_max_ps(length, tiny))),
-                       active);
-}
+using distance_lanes::multiplierScale;
 
 [[gnu::target("avx2,fma")]] Index projectAvx2(const DistanceBatch& b, Index begin, Index end) {
   const float* base = reinterpret_cast<const float*>(b.positions);
@@ -77,8 +50,7 @@ namespace {
     }
 
     const __m256 dx = _mm256_sub_ps(xa, xb), dy = _mm256_sub_ps(ya, yb), dz = _mm256_sub_ps(za, zb);
-    const __m256 length =
-        _mm256_sqrt_ps(_mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz))));
+    const __m256 length = distance_lanes::length(dx, dy, dz);
     const __m256 lambda = hard ? zero : _mm256_loadu_ps(b.lambda + k);
     const __m256 scale = multiplierScale(length, _mm256_loadu_ps(b.rest + k),
                                          hard ? zero : _mm256_loadu_ps(b.compliance + k),
@@ -135,8 +107,7 @@ namespace {
     const __m256 wa = _mm256_i32gather_ps(b.splitInverseMass, a, 4);
     const __m256 wb = _mm256_i32gather_ps(b.splitInverseMass, c, 4);
 
-    const __m256 length =
-        _mm256_sqrt_ps(_mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz))));
+    const __m256 length = distance_lanes::length(dx, dy, dz);
     const __m256 stretchCompliance = _mm256_loadu_ps(b.compliance + k);
     const __m256 compressionCompliance = _mm256_loadu_ps(b.compressionCompliance + k);
     const __m256 lambda = _mm256_loadu_ps(b.lambda + k);

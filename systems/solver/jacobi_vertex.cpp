@@ -8,11 +8,7 @@
 
 #include "systems/solver/distance_batch.h"
 
-// The batched path is written for float state on x86-64, like distance_batch.cpp's.
-#if (defined(__x86_64__) || defined(__i386__)) && !defined(NUCLEON_DOUBLE)
-#include <immintrin.h>
-#define NUCLEON_VERTEX_X86 1
-#endif
+#include "systems/solver/distance_lanes.h"
 
 namespace nucleon {
 namespace {
@@ -55,7 +51,7 @@ void moveBlockScalar(const VertexSlotRows& rows, std::size_t b, std::span<const 
   }
 }
 
-#if NUCLEON_VERTEX_X86
+#if NUCLEON_DISTANCE_LANES
 
 static_assert(std::is_same_v<Real, float>, "the batched vertex path is float-only");
 
@@ -69,7 +65,7 @@ static_assert(std::is_same_v<Real, float>, "the batched vertex path is float-onl
   const float* base = reinterpret_cast<const float*>(positions.data());
   const __m256i laneIndex = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256i lastParticle = _mm256_set1_epi32(static_cast<int>(positions.size()) - 1);
-  const __m256 tiny = _mm256_set1_ps(kTiny), zero = _mm256_setzero_ps();
+  const __m256 zero = _mm256_setzero_ps();
   const __m256 chainFactor = _mm256_set1_ps(step.factor), carry = _mm256_set1_ps(step.carry);
   const __m256 sheetExtra = _mm256_set1_ps(step.sheetFactor - step.factor);
   const bool accelerated = step.carry != 0;
@@ -94,17 +90,11 @@ static_assert(std::is_same_v<Real, float>, "the batched vertex path is float-onl
       const __m256 dx = _mm256_sub_ps(xi, _mm256_i32gather_ps(base, other3, 4));
       const __m256 dy = _mm256_sub_ps(yi, _mm256_i32gather_ps(base + 1, other3, 4));
       const __m256 dz = _mm256_sub_ps(zi, _mm256_i32gather_ps(base + 2, other3, 4));
-      const __m256 length =
-          _mm256_sqrt_ps(_mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz))));
-      const __m256 stiffness =
-          _mm256_add_ps(ownW, _mm256_loadu_ps(rows.otherSplitInverseMass.data() + at));
-      const __m256 active = _mm256_and_ps(_mm256_cmp_ps(length, tiny, _CMP_GE_OQ),
-                                          _mm256_cmp_ps(stiffness, tiny, _CMP_GE_OQ));
-      // s = −C / ((W_i + W_j) |d|), C = |d| − L: multiplierScale of distance_batch.cpp at α = 0.
+      const __m256 length = distance_lanes::length(dx, dy, dz);
+      // s = −C / ((W_i + W_j) |d|), C = |d| − L: the shared kernel's hard step.
       const __m256 s =
-          _mm256_and_ps(_mm256_div_ps(_mm256_sub_ps(_mm256_loadu_ps(rows.rest.data() + at), length),
-                                      _mm256_mul_ps(stiffness, _mm256_max_ps(length, tiny))),
-                        active);
+          distance_lanes::hardScale(length, _mm256_loadu_ps(rows.rest.data() + at), ownW,
+                                    _mm256_loadu_ps(rows.otherSplitInverseMass.data() + at), false);
       sx = _mm256_fmadd_ps(s, dx, sx);
       sy = _mm256_fmadd_ps(s, dy, sy);
       sz = _mm256_fmadd_ps(s, dz, sz);
@@ -207,7 +197,7 @@ void solveDistanceJacobiVertex(const VertexSlotRows& rows, std::span<Real> move,
   // multiplier step.
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 64),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-#if NUCLEON_VERTEX_X86
+#if NUCLEON_DISTANCE_LANES
                       if (distanceBatchesAvailable()) {
                         moveBlocksAvx2(rows, p, move.data(), laneLambda.data(), step, r.begin(),
                                        r.end());
@@ -232,7 +222,7 @@ void solveDistanceJacobiVertex(const VertexSlotRows& rows, std::span<Real> move,
                       }
                       const std::size_t end = r.end() * constraints / blocks;
                       std::size_t c = r.begin() * constraints / blocks;
-#if NUCLEON_VERTEX_X86
+#if NUCLEON_DISTANCE_LANES
                       if (distanceBatchesAvailable())
                         c = bookLambdaAvx2(rows, laneLambda.data(), lambda.data(), c, end);
 #endif

@@ -4,26 +4,15 @@
 #include <chrono>
 #include <type_traits>
 
+#include "systems/collision/broad_phase.h"
 #include "systems/collision/particle_contacts.h"
 #include "systems/collision/primitive_contacts.h"
 #include "systems/solver/constraint_sweeps.h"
 #include "systems/solver/family_pools.h"
+#include "systems/solver/multigrid_cascade.h"
 #include "systems/solver/tether_sweep.h"
 
 namespace nucleon {
-namespace {
-
-double timedContacts(ContactPool& contacts, const ColliderPool& colliders,
-                     PrimitiveContactPool& primitiveContacts, ParticlePool& particles,
-                     SolverKind kind) {
-  const auto start = std::chrono::steady_clock::now();
-  // Collider contacts last: a stack of layers pressed onto the ground ends the round on it.
-  if (primitiveContacts.size() > 0) projectPrimitiveContacts(primitiveContacts, particles, kind);
-  if (contacts.size() > 0) projectContacts(contacts, colliders, particles, kind);
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-}  // namespace
 
 SolveSettings solveSettingsOf(const SolverSettings& solver) {
   SolveSettings settings;
@@ -32,49 +21,131 @@ SolveSettings solveSettingsOf(const SolverSettings& solver) {
   settings.chebyshevRho = solver.chebyshevRho;
   settings.sheetRelaxation = solver.sheetRelaxation;
   settings.optimizedPaths = solver.optimizedPaths;
+  settings.cascade = solver.kind == SolverKind::Multigrid;
+  settings.cascadeEvery = solver.cascadeEvery;
+  settings.sweepsPerLevel = solver.sweepsPerLevel;
   return settings;
 }
 
-double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const SweepPlan& plan,
-                        ContactPool& contacts, const ColliderPool& colliders,
-                        PrimitiveContactPool& primitiveContacts, Real h,
-                        const SolveSettings& settings) {
-  SolverKind kind = settings.sweepKind;
-  // The step passes the fine sweeps' backend (fineSweepKind: multigrid's smoother); a caller
-  // that passes multigrid itself gets its default smoother, colored Gauss–Seidel.
-  if (kind == SolverKind::Multigrid) kind = SolverKind::ColoredGaussSeidel;
-  const bool anyContacts = contacts.size() > 0 || primitiveContacts.size() > 0;
-  pools.forEach([](auto& pool) { std::fill(pool.lambda.begin(), pool.lambda.end(), Real(0)); });
-  SweepContext context{particles, h, settings.relaxation, nullptr};
-  context.chebyshevRho = settings.chebyshevRho;
+namespace {
+
+template <typename F>
+double timed(F&& body) {
+  const auto start = std::chrono::steady_clock::now();
+  body();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Collider contacts last: a stack of layers pressed onto the ground ends the round on it.
+void projectAllContacts(SolvePools& pools, SolverKind kind) {
+  if (pools.primitiveContacts.size() > 0)
+    projectPrimitiveContacts(pools.primitiveContacts, pools.particles, kind);
+  if (pools.contacts.size() > 0)
+    projectContacts(pools.contacts, pools.colliders, pools.particles, kind);
+}
+
+// The multigrid cascade. Contacts are projected between its levels as between sweep rounds, so a
+// particle the cascade pulls toward a collider is held by its contact; particles with primitive
+// contacts keep the place their contacts gave them. The cascade moves particles by whole coarse
+// corrections, farther than the collider contacts' reach beyond their predicted motion: where it
+// carried one without a contact toward a collider, the pool is refilled over the motion to where
+// it is now (else the particle would end the solve inside and count as a missed contact). The
+// new pool starts its multipliers at zero, so friction forgets the cascade's normal pushes.
+void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepContext& context,
+                SolveReport& report) {
+  const std::span<const Index> contactOffsets =
+      pools.primitiveContacts.size() > 0
+          ? std::span<const Index>(pools.primitiveContacts.incidenceOffset)
+          : std::span<const Index>();
+  report.cascadeProjections += runMultigridCascade(
+      pools.hierarchies, pools.objects, pools.particles, pools.cascadeStart,
+      settings.sweepsPerLevel,
+      [](void* p) {
+        projectAllContacts(*static_cast<SolvePools*>(p), SolverKind::ColoredGaussSeidel);
+      },
+      &pools, contactOffsets);
+  if (pools.colliders.size() > 0 &&
+      contactsMissing(pools.contacts, pools.colliders, pools.particles)) {
+    detectContacts(pools.contacts, pools.colliders, pools.particles, context.h, pools.particles.p);
+    projectContacts(pools.contacts, pools.colliders, pools.particles, settings.sweepKind);
+    ++report.colliderRedetections;
+  }
+}
+
+// After the sweeps: friction of the primitive contacts; the candidate pairs of the actual motion
+// x → p where contacts and collider responses moved a particle off its predicted course and out
+// of its bounds (rather than the motion cut back to the bounds: a clamp would hold a particle
+// against the contact that pushed it, and stretch the cloth around it); then the fail-safe.
+void finishPrimitiveContacts(SolvePools& pools, SolverKind kind, SolveReport& report) {
+  applyPrimitiveFriction(pools.primitiveContacts, pools.particles, kind);
+  ParticlePool& particles = pools.particles;
+  if (!withinParticleBounds(pools.candidates, particles.p)) {
+    findCandidatePairs(pools.candidates, pools.bvh, pools.primitives, particles.x, particles.p,
+                       particles.w, kPrimitiveContactMargin);
+    setMotionBounds(pools.candidates, particles.x, particles.p);
+    growParticleBounds(pools.candidates, boundSlack(pools.primitives, kPrimitiveContactMargin));
+    measureStartDistances(pools.primitiveContacts, pools.candidates, pools.primitives, particles);
+    ++report.redetections;
+  }
+  report.crossing =
+      resolveCrossings(pools.primitiveContacts, pools.candidates, pools.primitives, particles);
+}
+
+}  // namespace
+
+SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
+                             const SubstepContext& context) {
+  SolveReport report;
+  if (settings.cascade) runCascade(pools, settings, context, report);
+  // Sweeps of `multigrid` itself take its default smoother, colored Gauss–Seidel.
+  const SolverKind kind = settings.sweepKind == SolverKind::Multigrid
+                              ? SolverKind::ColoredGaussSeidel
+                              : settings.sweepKind;
+  ConstraintPools& constraints = pools.constraints;
+  ParticlePool& particles = pools.particles;
+  const SweepPlan& plan = pools.plan;
+  const bool anyContacts = pools.contacts.size() > 0 || pools.primitiveContacts.size() > 0;
+  constraints.forEach(
+      [](auto& pool) { std::fill(pool.lambda.begin(), pool.lambda.end(), Real(0)); });
+  SweepContext sweep{particles, context.h, settings.relaxation, nullptr};
+  sweep.chebyshevRho = settings.chebyshevRho;
   // A registered family that did not opt into Jacobi's acceleration turns it off for every
   // family: extrapolated stretch against a hard, unaccelerated constraint on the same particles
   // was seen to diverge (a cloth corner held on a plane, double build), and plain Jacobi
   // converges, only more slowly.
-  for (const UserConstraintPool& pool : pools.user)
-    if (pool.size() > 0 && !pool.family.jacobiAcceleration) context.chebyshevRho = 0;
-  context.sheetRelaxation = settings.sheetRelaxation;
-  context.optimizedPaths = settings.optimizedPaths;
-  double contactSeconds = 0;
+  for (const UserConstraintPool& pool : constraints.user)
+    if (pool.size() > 0 && !pool.family.jacobiAcceleration) sweep.chebyshevRho = 0;
+  sweep.sheetRelaxation = settings.sheetRelaxation;
+  sweep.optimizedPaths = settings.optimizedPaths;
   int roundsDone = 0;
   for (const SweepOp& op : plan.ops) {
-    context.objectRuns =
+    sweep.objectRuns =
         op.objectRunsOffset < 0 ? nullptr : plan.objectRuns.data() + op.objectRunsOffset;
-    forEachPoolOf(op.family, pools, [&](auto& pool, auto tag) {
+    forEachPoolOf(op.family, constraints, [&](auto& pool, auto tag) {
       using Tag = decltype(tag);
       if constexpr ((Tag::kPaths & kTetherLayers) != 0)
-        solveTethers(kind, pool, context);
+        solveTethers(kind, pool, sweep);
       else
-        solveSweep<typename Tag::Kernel, Tag::kPaths>(kind, pool, context);
+        solveSweep<typename Tag::Kernel, Tag::kPaths>(kind, pool, sweep);
     });
-    if (op.endsRound && anyContacts)
-      contactSeconds += timedContacts(contacts, colliders, primitiveContacts, particles, kind);
-    if (op.endsRound && ++roundsDone < plan.rounds && settings.betweenRounds)
-      settings.betweenRounds(settings.hookContext, roundsDone);
+    if (!op.endsRound) continue;
+    if (anyContacts) report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
+    // The repeated cascade, from the positions the fine sweeps left.
+    if (++roundsDone < plan.rounds && settings.cascade && settings.cascadeEvery > 0 &&
+        roundsDone % settings.cascadeEvery == 0)
+      runCascade(pools, settings, context, report);
   }
   if (plan.ops.empty() && anyContacts)
-    contactSeconds += timedContacts(contacts, colliders, primitiveContacts, particles, kind);
-  return contactSeconds;
+    report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
+  if (pools.colliders.size() > 0)
+    report.contactSeconds += timed([&] {
+      report.missedContacts =
+          resolveMissedContacts(pools.contacts, pools.colliders, pools.particles);
+    });
+  if (pools.primitives.total() > 0)
+    report.contactSeconds +=
+        timed([&] { finishPrimitiveContacts(pools, settings.sweepKind, report); });
+  return report;
 }
 
 std::uint64_t countProjections(const ConstraintPools& pools, const ParticlePool& particles,

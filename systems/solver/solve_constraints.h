@@ -1,46 +1,80 @@
-// The solve stage of a substep: the sweeps of the plan, in order, with the chosen backend.
+// The solve stage of a substep, in one place: the multigrid cascade when due, the sweeps of the
+// plan round by round with the chosen backend, contact projection after every round, then the
+// collider contacts the motion missed, primitive friction, re-detection of candidate pairs the
+// motion left, and the crossing fail-safe. The step graph calls it once per substep; nothing in it
+// calls back into the step graph.
 #pragma once
 
 #include <cstdint>
+#include <span>
+#include <vector>
 
+#include "components/candidate_pairs.h"
 #include "components/collider_pool.h"
+#include "components/collision_primitives.h"
 #include "components/constraint_pools.h"
 #include "components/contact_pool.h"
+#include "components/level_hierarchy.h"
+#include "components/objects.h"
 #include "components/particles.h"
+#include "components/primitive_bvh.h"
 #include "components/primitive_contact_pool.h"
 #include "components/sweep_plan.h"
 #include "nucleon/solver_settings.h"
+#include "systems/collision/primitive_contacts.h"
 #include "systems/solver/jacobi_chebyshev.h"
+#include "systems/substep_context.h"
 
 namespace nucleon {
 
-// Resets every multiplier (XPBD's λ lives for one substep) and runs plan.ops on particles.p,
-// projecting the collider contact pool and the primitive contact pool after each round (and once
-// when the plan has no sweeps), so that resting contact is solved with the constraints and not
-// after them. Returns the seconds spent in contact projection, which the profile books as
-// collisions. After each round but the last (its contacts projected), `betweenRounds(context,
-// r)` is called with the number r ≥ 1 of rounds done, if given: the multigrid backend repeats
-// its cascade there. `sheetRelaxation` is Jacobi's γ for the particles of sheets and solids in the
-// vertex-centric sweep (SolverSettings::sheetRelaxation; 0: `relaxation`).
-using RoundHook = void (*)(void* context, int roundsDone);
-
-// How the sweeps of one solve run: the backend of the fine sweeps and its settings, from
-// SolverSettings (solveSettingsOf).
+// How the solve runs, from SolverSettings (solveSettingsOf).
 struct SolveSettings {
-  SolverKind sweepKind = SolverKind::ColoredGaussSeidel;  // multigrid: its smoother
+  SolverKind sweepKind = SolverKind::ColoredGaussSeidel;  // the fine sweeps: multigrid's smoother
   Real relaxation = 1;
   Real chebyshevRho = kChebyshevSpectralRadius;
   Real sheetRelaxation = 0;
   bool optimizedPaths = true;
-  RoundHook betweenRounds = nullptr;
-  void* hookContext = nullptr;
+  // The multigrid cascade: before the first round, then after every `cascadeEvery` rounds (0:
+  // only before the first), with `sweepsPerLevel` sweeps of each coarse level.
+  bool cascade = false;
+  int cascadeEvery = 0;
+  std::span<const int> sweepsPerLevel;
 };
+// Refers to solver.sweepsPerLevel: the settings live as long as `solver`.
 SolveSettings solveSettingsOf(const SolverSettings& solver);
 
-double solveConstraints(ConstraintPools& pools, ParticlePool& particles, const SweepPlan& plan,
-                        ContactPool& contacts, const ColliderPool& colliders,
-                        PrimitiveContactPool& primitiveContacts, Real h,
-                        const SolveSettings& settings);
+// The pools the solve reads and writes.
+struct SolvePools {
+  ConstraintPools& constraints;
+  ParticlePool& particles;
+  const SweepPlan& plan;
+  ContactPool& contacts;
+  const ColliderPool& colliders;
+  PrimitiveContactPool& primitiveContacts;
+  CandidatePairs& candidates;
+  const CollisionPrimitives& primitives;
+  PrimitiveBvh& bvh;
+  const LevelHierarchies& hierarchies;
+  std::span<const ObjectRecord> objects;
+  std::vector<Vec3>& cascadeStart;  // the cascade's scratch
+};
+
+// What one solve did, for the profile, the collision report and the repair log.
+struct SolveReport {
+  double contactSeconds = 0;  // contact projection, friction and fail-safe: booked as collisions
+  std::size_t missedContacts = 0;        // particles pushed out of colliders they entered
+  std::size_t redetections = 0;          // candidate pairs found again after the sweeps
+  std::size_t colliderRedetections = 0;  // collider contacts found again after a cascade
+  std::size_t cascadeProjections = 0;
+  CrossingReport crossing;
+};
+
+// Resets every multiplier (XPBD's λ lives for one substep) and runs plan.ops on particles.p,
+// projecting the collider contact pool and the primitive contact pool after each round (and once
+// when the plan has no sweeps), so that resting contact is solved with the constraints and not
+// after them.
+SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
+                             const SubstepContext& context);
 
 // Constraint projections one substep of `plan` performs (for throughput figures).
 std::uint64_t countProjections(const ConstraintPools& pools, const ParticlePool& particles,

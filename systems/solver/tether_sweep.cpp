@@ -10,11 +10,7 @@
 #include "systems/solver/distance_batch.h"
 #include "systems/solver/tether_projection.h"
 
-// The batched path is written for float state on x86-64, like the distance batches.
-#if (defined(__x86_64__) || defined(__i386__)) && !defined(NUCLEON_DOUBLE)
-#include <immintrin.h>
-#define NUCLEON_TETHER_X86 1
-#endif
+#include "systems/solver/distance_lanes.h"
 
 namespace nucleon {
 namespace {
@@ -45,7 +41,7 @@ inline void projectVertex(const TetherConstraints& pool, Index rank, Vec3* p, co
   p[vertex] = x;
 }
 
-#if NUCLEON_TETHER_X86
+#if NUCLEON_DISTANCE_LANES
 // The (free, pin) pairs of eight tethers from c on → the eight free and the eight pin indices.
 [[gnu::target("avx2,fma")]] inline void loadPairs(const TetherConstraints& pool, Index c,
                                                   __m256i& free, __m256i& pin) {
@@ -103,24 +99,20 @@ struct Eight {
 }
 
 [[gnu::target("avx2,fma")]] inline __m256 norm(__m256 x, __m256 y, __m256 z) {
-  return _mm256_sqrt_ps(_mm256_fmadd_ps(x, x, _mm256_fmadd_ps(y, y, _mm256_mul_ps(z, z))));
+  return distance_lanes::length(x, y, z);
 }
 
 // projectOntoTether, eight at a time: q = x − d (|d| − r)/|d| where |d| > r, d = x − c.
 [[gnu::target("avx2,fma")]] inline void projectOntoBall(__m256 x, __m256 y, __m256 z,
                                                         const Eight& c, __m256 r, __m256& qx,
                                                         __m256& qy, __m256& qz) {
-  const __m256 tiny = _mm256_set1_ps(kTiny);
   const __m256 dx = _mm256_sub_ps(x, c.x), dy = _mm256_sub_ps(y, c.y), dz = _mm256_sub_ps(z, c.z);
-  const __m256 length = norm(dx, dy, dz);
-  const __m256 constraint = _mm256_sub_ps(length, r);
-  const __m256 active = _mm256_and_ps(_mm256_cmp_ps(constraint, _mm256_setzero_ps(), _CMP_GT_OQ),
-                                      _mm256_cmp_ps(length, tiny, _CMP_GE_OQ));
+  // The shared kernel's hard, unilateral step with the pin fixed (w_a = 1, w_b = 0).
   const __m256 scale =
-      _mm256_and_ps(_mm256_div_ps(constraint, _mm256_max_ps(length, tiny)), active);
-  qx = _mm256_fnmadd_ps(scale, dx, x);
-  qy = _mm256_fnmadd_ps(scale, dy, y);
-  qz = _mm256_fnmadd_ps(scale, dz, z);
+      distance_lanes::hardScale(norm(dx, dy, dz), r, _mm256_set1_ps(1), _mm256_setzero_ps(), true);
+  qx = _mm256_fmadd_ps(scale, dx, x);
+  qy = _mm256_fmadd_ps(scale, dy, y);
+  qz = _mm256_fmadd_ps(scale, dz, z);
 }
 
 // Lanes where |q − c| ≤ r (1 + slack).
@@ -292,7 +284,7 @@ void solveTethers(SolverKind kind, TetherConstraints& pool, const SweepContext& 
     return;
   }
   bool batched = false;
-#if NUCLEON_TETHER_X86
+#if NUCLEON_DISTANCE_LANES
   batched = distanceBatchesAvailable();
 #endif
   const std::size_t layerCount = pool.coloring.colorCount();
@@ -303,7 +295,7 @@ void solveTethers(SolverKind kind, TetherConstraints& pool, const SweepContext& 
                     [&](const tbb::blocked_range<Index>& range) {
                       for (Index b = range.begin(); b != range.end(); ++b) {
                         const Index a = b * kBatch;
-#if NUCLEON_TETHER_X86
+#if NUCLEON_DISTANCE_LANES
                         if (batched && a + kBatch <= ranks && fullBatch(pool, a, w)) {
                           projectEight(pool, a, p, layerCount);
                           continue;
