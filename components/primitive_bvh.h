@@ -3,8 +3,8 @@
 //
 // Lifetime: a tree is built from scratch when the number of boxes it holds changes and refit
 // otherwise (Embree keeps the tree's topology and recomputes its node bounds from the new boxes),
-// which is what a simulation needs from one substep to the next. Three trees, one per kind of
-// primitive a query looks for: triangles, edges and isolated points. Embree itself stays inside
+// which is what a simulation needs from one substep to the next. Four trees: triangles, edges,
+// all points and the isolated points. Embree itself stays inside
 // primitive_bvh.cpp, so that including this header (through world_state.h) does not pull in
 // Embree's headers.
 //
@@ -44,8 +44,8 @@ inline bool overlaps(const PrimitiveBox& a, const PrimitiveBox& b) {
          !a.isEmpty() && !b.isEmpty();
 }
 
-enum class BvhTree : std::uint8_t { Triangles, Edges, IsolatedPoints };
-constexpr std::size_t kBvhTreeCount = 3;
+enum class BvhTree : std::uint8_t { Triangles, Edges, IsolatedPoints, Points };
+constexpr std::size_t kBvhTreeCount = 4;
 
 class PrimitiveBvh {
  public:
@@ -65,10 +65,13 @@ class PrimitiveBvh {
   // built from scratch. A tree without boxes holds no Embree scene.
   bool commit();
 
-  // Calls visit(context, i) once for every primitive i of `tree` whose box overlaps `query`, in no
-  // particular order. Safe to call from many threads at once between two commits.
-  using Visitor = void (*)(void* context, Index primitive);
-  void forEachOverlap(BvhTree tree, const PrimitiveBox& query, Visitor visit, void* context) const;
+  // Calls visit(context, a, b, count) with batches of the pairs (a[k], b[k]) of a primitive of
+  // `treeA` and one of `treeB` whose boxes overlap: every such pair, in no particular order and
+  // from many threads at once (Embree's dual-tree rtcCollide, which tests boxes four or eight at
+  // a time). A tree met with itself reports each pair both ways and may report a primitive with
+  // itself. Call between two commits.
+  using PairVisitor = void (*)(void* context, const Index* a, const Index* b, std::size_t count);
+  void forEachOverlappingPair(BvhTree treeA, BvhTree treeB, PairVisitor visit, void* context) const;
 
   std::size_t builtCount(BvhTree tree) const { return builtCount_[static_cast<std::size_t>(tree)]; }
   // Trees built from scratch and trees refit, over the component's lifetime.
@@ -78,11 +81,12 @@ class PrimitiveBvh {
   std::size_t embreeErrors() const;
 
   // Broad phase scratch, kept between calls for its capacity.
-  std::vector<PrimitiveBox> pointBoxes;  // query box of every point
-  std::vector<Index> isolatedPoints;     // the point of each primitive of the IsolatedPoints tree
-  std::vector<Index> partnerCount;       // per query: partners kept
-  std::vector<std::vector<Index>> chunkPartners;  // per chunk of queries: their partners in order
-  std::vector<std::size_t> chunkOffset;           // per chunk: where its pairs start in the output
+  std::vector<Index> isolatedPoints;  // the point of each primitive of the IsolatedPoints tree
+  std::vector<Index> pairOffset;      // per query primitive: where its partners start
+  std::vector<Index> pairCursor;      // per query primitive: the next free place of its partners
+  // Pairs found by each thread of the arena (by its index in it), as first << 32 | second,
+  // before they are put in order.
+  std::vector<std::vector<std::uint64_t>> threadPairs;
 
  private:
   struct Embree;

@@ -1,6 +1,7 @@
 #include "systems/collision/broad_phase.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -11,6 +12,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/partitioner.h>
+#include <tbb/task_arena.h>
 
 namespace nucleon {
 namespace {
@@ -18,8 +20,7 @@ namespace {
 // Embree rejects bounds beyond ±1.844e18 (FLT_LARGE); a box must stay inside to be stored.
 constexpr double kMaxCoordinate = 1e18;
 constexpr std::size_t kBoxGrain = 2048;
-// Queries per chunk: the fixed unit of parallel work, and of output order.
-constexpr std::size_t kQueryChunk = 256;
+constexpr std::size_t kPairGrain = 4096;
 
 using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point start) {
@@ -56,60 +57,107 @@ std::size_t computeBoxes(std::vector<PrimitiveBox>& boxes, std::size_t count,
       std::plus<>());
 }
 
-// The primitive a query is made for, and where its partners go.
-struct QueryContext {
+// What the pair callbacks need to filter a pair and keep it.
+struct PairFilter {
   const CollisionPrimitives* primitives;
   const Real* w;
   const Index* isolatedPoints;  // tree primitive → point, for the IsolatedPoints tree
-  std::vector<Index>* partners;
-  std::array<Index, 2> particles;
-  int particleCount;
-  std::uint32_t object;
-  bool pinned;  // all of the query's particles have inverse mass 0
-  Index self;   // same-kind pairs keep only partners above the query: each pair once
+  std::vector<std::vector<std::uint64_t>>* found;  // one list per thread of the arena
 };
 
-// The filters every candidate goes through, in the order of their cost. Only boxes that overlap
-// the query's reach here.
+// The filters every pair of overlapping boxes goes through, in the order of their cost; a pair
+// kept is stored as first << 32 | second in the running thread's list.
 template <PairKind kKind>
-void keepPartner(void* raw, Index primitive) {
-  QueryContext& c = *static_cast<QueryContext*>(raw);
-  const CollisionPrimitives& prims = *c.primitives;
-  Index partner = primitive;
-  std::span<const Index> particles;
-  std::uint32_t object;
-  if constexpr (kKind == PairKind::VertexFace) {
-    particles = prims.triangleParticles[partner];
-    object = prims.triangleObject[partner];
-  } else if constexpr (kKind == PairKind::EdgeEdge || kKind == PairKind::VertexEdge) {
-    if (kKind == PairKind::EdgeEdge && partner <= c.self) return;
-    particles = prims.edgeParticles[partner];
-    object = prims.edgeObject[partner];
-  } else {
-    partner = c.isolatedPoints[primitive];
-    if (partner <= c.self) return;
-    particles = {&prims.pointParticle[partner], 1};
-    object = prims.pointObject[partner];
+void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
+  const PairFilter& f = *static_cast<const PairFilter*>(raw);
+  const CollisionPrimitives& prims = *f.primitives;
+  // Embree's traversal runs as tasks of the caller's arena, whose threads have indices below its
+  // concurrency, for which the lists were made.
+  std::vector<std::uint64_t>& found =
+      (*f.found)[static_cast<std::size_t>(tbb::this_task_arena::current_thread_index())];
+  for (std::size_t k = 0; k < count; ++k) {
+    Index first = a[k], second = b[k];
+    std::span<const Index> particlesA, particlesB;
+    std::uint32_t objectA, objectB;
+    if constexpr (kKind == PairKind::VertexFace) {
+      particlesA = {&prims.pointParticle[first], 1};
+      particlesB = prims.triangleParticles[second];
+      objectA = prims.pointObject[first], objectB = prims.triangleObject[second];
+    } else if constexpr (kKind == PairKind::EdgeEdge) {
+      // A tree met with itself: each pair once, in order.
+      if (first >= second) continue;
+      particlesA = prims.edgeParticles[first];
+      particlesB = prims.edgeParticles[second];
+      objectA = prims.edgeObject[first], objectB = prims.edgeObject[second];
+    } else if constexpr (kKind == PairKind::VertexEdge) {
+      first = f.isolatedPoints[first];
+      particlesA = {&prims.pointParticle[first], 1};
+      particlesB = prims.edgeParticles[second];
+      objectA = prims.pointObject[first], objectB = prims.edgeObject[second];
+    } else {
+      first = f.isolatedPoints[first], second = f.isolatedPoints[second];
+      if (first >= second) continue;
+      particlesA = {&prims.pointParticle[first], 1};
+      particlesB = {&prims.pointParticle[second], 1};
+      objectA = prims.pointObject[first], objectB = prims.pointObject[second];
+    }
+    bool shared = false, free = false;
+    for (Index i : particlesA) {
+      for (Index j : particlesB) shared |= i == j;
+      free |= f.w[i] != 0;
+    }
+    if (shared) continue;
+    for (Index j : particlesB) free |= f.w[j] != 0;
+    if (!free) continue;
+    if (!prims.excludedPairs.empty() && prims.excluded(objectA, objectB)) continue;
+    found.push_back(std::uint64_t{first} << 32 | second);
   }
-  for (int k = 0; k < c.particleCount; ++k)
-    for (Index b : particles)
-      if (c.particles[k] == b) return;
-  if (c.pinned &&
-      std::all_of(particles.begin(), particles.end(), [&](Index b) { return c.w[b] == 0; }))
-    return;
-  if (!prims.excludedPairs.empty() && prims.excluded(c.object, object)) return;
-  c.partners->push_back(partner);
 }
 
-// The queries of one pair kind: which tree they search, how many there are, where their chunks
-// and per-query counts start.
-struct Segment {
-  PairKind kind;
-  BvhTree tree;
-  std::size_t queries;
-  std::size_t firstChunk;
-  std::size_t firstQuery;
-};
+// Appends the pairs the threads found, of one kind whose first index is below `firsts`, to `out`
+// sorted by (first, second): a counting sort by first index (integer atomics: the same counts
+// in any order), then each first index's few partners sorted, so that the result does not depend
+// on which thread found which pair. Returns how many were appended.
+std::size_t appendInOrder(CandidatePairs& out, PrimitiveBvh& bvh, PairKind kind,
+                          std::size_t firsts) {
+  bvh.pairOffset.assign(firsts + 1, 0);
+  for (std::vector<std::uint64_t>& found : bvh.threadPairs)
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, found.size(), kPairGrain),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i != r.end(); ++i)
+                          std::atomic_ref<Index>(bvh.pairOffset[(found[i] >> 32) + 1])
+                              .fetch_add(1, std::memory_order_relaxed);
+                      });
+  const std::size_t base = out.size();
+  for (std::size_t i = 0; i < firsts; ++i) bvh.pairOffset[i + 1] += bvh.pairOffset[i];
+  const std::size_t added = bvh.pairOffset[firsts];
+  out.kind.resize(base + added, kind);
+  out.first.resize(base + added);
+  out.second.resize(base + added);
+  bvh.pairCursor.assign(bvh.pairOffset.begin(), bvh.pairOffset.end() - 1);
+  for (std::vector<std::uint64_t>& found : bvh.threadPairs) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, found.size(), kPairGrain),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                          const Index first = static_cast<Index>(found[i] >> 32);
+                          const Index at = std::atomic_ref<Index>(bvh.pairCursor[first])
+                                               .fetch_add(1, std::memory_order_relaxed);
+                          out.second[base + at] = static_cast<Index>(found[i] & 0xffffffffu);
+                        }
+                      });
+    found.clear();
+  }
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, firsts, kBoxGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const std::size_t begin = base + bvh.pairOffset[i], end = base + bvh.pairOffset[i + 1];
+          std::sort(out.second.begin() + begin, out.second.begin() + end);
+          std::fill(out.first.begin() + begin, out.first.begin() + end, static_cast<Index>(i));
+        }
+      });
+  return added;
+}
 
 }  // namespace
 
@@ -150,11 +198,12 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
   auto& triangleBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::Triangles)];
   auto& edgeBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::Edges)];
   auto& isolatedBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::IsolatedPoints)];
+  auto& pointBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::Points)];
 
   // Boxes.
   Clock::time_point start = Clock::now();
   stats.skippedPrimitives =
-      computeBoxes(bvh.pointBoxes, points, primitives, primitives.pointRadius, pointParticles, x, p,
+      computeBoxes(pointBoxes, points, primitives, primitives.pointRadius, pointParticles, x, p,
                    margin) +
       computeBoxes(edgeBoxes, edges, primitives, primitives.edgeRadius, edgeParticles, x, p,
                    margin) +
@@ -165,7 +214,9 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
     if (primitives.pointIsolated[i]) bvh.isolatedPoints.push_back(static_cast<Index>(i));
   isolatedBoxes.resize(bvh.isolatedPoints.size());
   for (std::size_t k = 0; k < bvh.isolatedPoints.size(); ++k)
-    isolatedBoxes[k] = bvh.pointBoxes[bvh.isolatedPoints[k]];
+    isolatedBoxes[k] = pointBoxes[bvh.isolatedPoints[k]];
+  // Every point's box is needed only against triangles.
+  if (triangles == 0) pointBoxes.clear();
   stats.boxSeconds = secondsSince(start);
 
   // Trees.
@@ -173,129 +224,31 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
   stats.rebuilt = bvh.commit();
   stats.commitSeconds = secondsSince(start);
 
-  // Queries, in the output order: kind by kind, each over its queries in index order.
+  // Pairs, kind by kind, each found by one dual-tree traversal and then put in order.
   start = Clock::now();
-  const std::size_t isolated = bvh.isolatedPoints.size();
-  std::array<Segment, 4> segments = {
-      Segment{PairKind::VertexFace, BvhTree::Triangles, triangles ? points : 0, 0, 0},
-      Segment{PairKind::EdgeEdge, BvhTree::Edges, edges, 0, 0},
-      Segment{PairKind::VertexEdge, BvhTree::Edges, edges ? isolated : 0, 0, 0},
-      Segment{PairKind::VertexVertex, BvhTree::IsolatedPoints, isolated, 0, 0}};
-  std::size_t chunks = 0, queries = 0;
-  for (Segment& s : segments) {
-    s.firstChunk = chunks;
-    s.firstQuery = queries;
-    chunks += (s.queries + kQueryChunk - 1) / kQueryChunk;
-    queries += s.queries;
-  }
-  bvh.partnerCount.resize(queries);
-  if (bvh.chunkPartners.size() < chunks) bvh.chunkPartners.resize(chunks);
-  bvh.chunkOffset.resize(chunks + 1);
-
-  // The first index of each query's pairs: a point or an edge of the primitive lists.
-  auto queryPrimitive = [&](const Segment& s, std::size_t q) -> Index {
-    return s.kind == PairKind::VertexEdge || s.kind == PairKind::VertexVertex
-               ? bvh.isolatedPoints[q]
-               : static_cast<Index>(q);
+  out.clear();
+  bvh.threadPairs.resize(
+      std::max<std::size_t>(bvh.threadPairs.size(), tbb::this_task_arena::max_concurrency()));
+  for (std::vector<std::uint64_t>& found : bvh.threadPairs) found.clear();
+  PairFilter filter{&primitives, w.data(), bvh.isolatedPoints.data(), &bvh.threadPairs};
+  struct Traversal {
+    PairKind kind;
+    BvhTree a, b;
+    PrimitiveBvh::PairVisitor keep;
   };
-  auto segmentOf = [&](std::size_t chunk) -> const Segment& {
-    std::size_t s = 3;
-    while (segments[s].firstChunk > chunk || segments[s].queries == 0) --s;
-    return segments[s];
-  };
-
-  // Chunks are fixed ranges of queries, so which pairs a chunk holds, and in which order, does
-  // not depend on the thread that runs it; the scheduler is free to balance them.
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, chunks, 1),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t chunk = r.begin(); chunk != r.end(); ++chunk) {
-          const Segment& s = segmentOf(chunk);
-          const std::size_t begin = (chunk - s.firstChunk) * kQueryChunk;
-          const std::size_t end = std::min(s.queries, begin + kQueryChunk);
-          std::vector<Index>& partners = bvh.chunkPartners[chunk];
-          partners.clear();
-          QueryContext context{
-              &primitives, w.data(), bvh.isolatedPoints.data(), &partners, {}, 0, 0, false, 0};
-          PrimitiveBvh::Visitor visit = nullptr;
-          switch (s.kind) {
-            case PairKind::VertexFace:
-              visit = &keepPartner<PairKind::VertexFace>;
-              break;
-            case PairKind::EdgeEdge:
-              visit = &keepPartner<PairKind::EdgeEdge>;
-              break;
-            case PairKind::VertexEdge:
-              visit = &keepPartner<PairKind::VertexEdge>;
-              break;
-            case PairKind::VertexVertex:
-              visit = &keepPartner<PairKind::VertexVertex>;
-              break;
-          }
-          for (std::size_t q = begin; q < end; ++q) {
-            const std::size_t first = partners.size();
-            const Index self = queryPrimitive(s, q);
-            const PrimitiveBox* box;
-            if (s.kind == PairKind::EdgeEdge) {
-              const auto& e = primitives.edgeParticles[self];
-              context.particles = e;
-              context.particleCount = 2;
-              context.object = primitives.edgeObject[self];
-              context.pinned = w[e[0]] == 0 && w[e[1]] == 0;
-              box = &edgeBoxes[self];
-            } else {
-              const Index particle = primitives.pointParticle[self];
-              context.particles = {particle, particle};
-              context.particleCount = 1;
-              context.object = primitives.pointObject[self];
-              context.pinned = w[particle] == 0;
-              box = &bvh.pointBoxes[self];
-            }
-            context.self = self;
-            bvh.forEachOverlap(s.tree, *box, visit, &context);
-            // Embree reports in tree order; sorting each query's partners makes the output
-            // independent of the tree's shape (and so of a rebuild or a refit).
-            std::sort(partners.begin() + first, partners.end());
-            bvh.partnerCount[s.firstQuery + q] = static_cast<Index>(partners.size() - first);
-          }
-        }
-      },
-      tbb::simple_partitioner());
-
-  std::size_t total = 0;
-  for (const Segment& s : segments) {
-    const std::size_t segmentChunks = (s.queries + kQueryChunk - 1) / kQueryChunk;
-    const std::size_t segmentStart = total;
-    for (std::size_t chunk = s.firstChunk; chunk < s.firstChunk + segmentChunks; ++chunk) {
-      bvh.chunkOffset[chunk] = total;
-      total += bvh.chunkPartners[chunk].size();
-    }
-    stats.pairs[static_cast<std::size_t>(s.kind)] = total - segmentStart;
+  constexpr std::array<Traversal, 4> traversals = {{
+      {PairKind::VertexFace, BvhTree::Points, BvhTree::Triangles, &keepPairs<PairKind::VertexFace>},
+      {PairKind::EdgeEdge, BvhTree::Edges, BvhTree::Edges, &keepPairs<PairKind::EdgeEdge>},
+      {PairKind::VertexEdge, BvhTree::IsolatedPoints, BvhTree::Edges,
+       &keepPairs<PairKind::VertexEdge>},
+      {PairKind::VertexVertex, BvhTree::IsolatedPoints, BvhTree::IsolatedPoints,
+       &keepPairs<PairKind::VertexVertex>},
+  }};
+  for (const Traversal& t : traversals) {
+    bvh.forEachOverlappingPair(t.a, t.b, t.keep, &filter);
+    const std::size_t firsts = t.kind == PairKind::EdgeEdge ? edges : points;
+    stats.pairs[static_cast<std::size_t>(t.kind)] = appendInOrder(out, bvh, t.kind, firsts);
   }
-  bvh.chunkOffset[chunks] = total;
-  out.kind.resize(total);
-  out.first.resize(total);
-  out.second.resize(total);
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, chunks, 1),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t chunk = r.begin(); chunk != r.end(); ++chunk) {
-          const Segment& s = segmentOf(chunk);
-          const std::size_t begin = (chunk - s.firstChunk) * kQueryChunk;
-          const std::size_t end = std::min(s.queries, begin + kQueryChunk);
-          const std::vector<Index>& partners = bvh.chunkPartners[chunk];
-          std::size_t at = bvh.chunkOffset[chunk], next = 0;
-          for (std::size_t q = begin; q < end; ++q) {
-            const Index first = queryPrimitive(s, q);
-            for (Index k = 0; k < bvh.partnerCount[s.firstQuery + q]; ++k, ++at, ++next) {
-              out.kind[at] = s.kind;
-              out.first[at] = first;
-              out.second[at] = partners[next];
-            }
-          }
-        }
-      },
-      tbb::simple_partitioner());
   stats.querySeconds = secondsSince(start);
   return stats;
 }

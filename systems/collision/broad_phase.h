@@ -21,9 +21,13 @@
 // the range Embree accepts) is skipped: it takes part in no pair, and the count is reported.
 //
 // findCandidatePairs keeps the boxes in Embree trees (components/primitive_bvh.h), refit from one
-// call to the next while the primitive counts stay, and queries them per primitive in parallel
-// over fixed chunks of primitives: each chunk's pairs come out sorted, and the chunks are
-// concatenated in order, so the result is the same sorted list for any thread count.
+// call to the next while the primitive counts stay, and finds each kind's pairs with one
+// dual-tree traversal (rtcCollide: points against triangles, edges against edges, isolated points
+// against edges and against each other), in parallel, every overlapping pair of boxes once per
+// traversal (a self-traversal keeps first < second). The threads' pairs are then put in order by
+// a counting sort on the first index and a sort of each first index's partners, so the result is
+// the same sorted list for any thread count. (Per-primitive point queries, which Embree culls
+// with the sphere around the query box, cost 1.7× as much on a folded 128² cloth.)
 // findCandidatePairsBruteForce tests every pair of boxes: the reference.
 #pragma once
 
