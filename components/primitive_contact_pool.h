@@ -55,6 +55,9 @@ struct PrimitiveContactPool {
   std::vector<Index> slotOfCandidate;
   std::vector<double> startDistance;
   std::vector<std::uint8_t> suspect;
+  // Per particle: the fail-safe round that last moved it, plus one (0: none), so that a round
+  // re-tests only the pairs the one before changed.
+  std::vector<int> failsafeRound;
 
   std::size_t size() const { return particles.size(); }
   void resize(std::size_t n) {

@@ -168,6 +168,7 @@ bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectS
   const auto c0 = closestCoefficients(v.kind, X0);
   const Vec3d gap0 = combine(c0, X0, v.count);
   startDistance = gap0.norm();
+  if (!std::isfinite(startDistance) || startDistance - motion > reach) return false;
   if (v.objectA == v.objectB) {
     // Held apart by the mesh itself: no contact between primitives of one object that are closer
     // than their contact distance in the rest shape (they would push the mesh away from its rest
@@ -180,7 +181,6 @@ bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectS
         combine(closestCoefficients(v.kind, R), R, v.count).norm() < double(v.radius))
       return false;
   }
-  if (!std::isfinite(startDistance) || startDistance - motion > reach) return false;
   // Along the predicted motion the distance is at least max(d0 − t L, d1 − (1 − t) L), whose
   // smallest value over t is (d0 + d1 − L) / 2.
   const auto c1 = closestCoefficients(v.kind, X1);
@@ -518,16 +518,24 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
       },
       std::plus<>());
   const std::size_t n = candidates.size();
+  // The round in which the fail-safe last moved each particle (0: not yet).
+  contacts.failsafeRound.assign(particles.size(), 0);
   for (int round = 0; round < kMaxFailsafeRounds; ++round) {
     // Pairs whose start distance the final motion could have used up, tested by CCD at zero
-    // thickness: does any point of one reach the other?
+    // thickness: does any point of one reach the other? After the first round only the pairs
+    // whose motion the last round changed, and those still crossing, can have a new answer.
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, n, kPairGrain),
         [&](const tbb::blocked_range<std::size_t>& r) {
           for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            contacts.suspect[i] = 0;
             const PairView v =
                 viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
+            if (round > 0 && !contacts.suspect[i]) {
+              bool moved = false;
+              for (int k = 0; k < v.count; ++k) moved |= contacts.failsafeRound[v.id[k]] == round;
+              if (!moved) continue;
+            }
+            contacts.suspect[i] = 0;
             Vec3d X0[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
             Vec3d X1[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
             for (int k = 0; k < v.count; ++k) {
@@ -572,6 +580,7 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
             otherFree ? particles.x[id] : particles.x[id] + (sideA ? shiftB : shiftA);
         if (particles.p[id] != target) {
           particles.p[id] = target;
+          contacts.failsafeRound[id] = round + 1;
           ++report.stopped;
         }
       }
