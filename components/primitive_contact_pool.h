@@ -24,6 +24,15 @@
 
 namespace nucleon {
 
+// One contact as the narrow phase makes it, before it is stored in the pool.
+struct PrimitiveContactRecord {
+  std::array<Index, 4> particles{};
+  std::array<Real, 4> coefficient{};
+  Vec3 normal = Vec3::Zero();
+  Real distance = 0, friction = 0, staticFriction = 0, restitution = 0, stickiness = 0;
+  Real approachSpeed = 0;
+};
+
 struct PrimitiveContactPool {
   std::vector<std::array<Index, 4>> particles;
   std::vector<std::array<Real, 4>> coefficient;  // c_k; 0 for unused slots
@@ -50,9 +59,12 @@ struct PrimitiveContactPool {
   // Friction scratch of the parallel backends: the tangential correction of each contact.
   std::vector<Vec3> tangentStep;
 
-  // Per candidate pair: whether it became a contact, then its place in the pool; its distance at
-  // the start of the substep; whether the fail-safe must test it with CCD.
-  std::vector<Index> slotOfCandidate;
+  // Narrow-phase scratch: the contacts each fixed chunk of candidates made, and where each
+  // chunk's contacts start in the pool.
+  std::vector<std::vector<PrimitiveContactRecord>> chunkContacts;
+  std::vector<std::size_t> chunkOffset;
+  // Per candidate pair: its distance at the start of the substep; whether the fail-safe must test
+  // it with CCD.
   std::vector<double> startDistance;
   std::vector<std::uint8_t> suspect;
   // Per particle: the fail-safe round that last moved it, plus one (0: none), so that a round
@@ -60,6 +72,12 @@ struct PrimitiveContactPool {
   std::vector<int> failsafeRound;
 
   std::size_t size() const { return particles.size(); }
+  void store(std::size_t slot, const PrimitiveContactRecord& c) {
+    particles[slot] = c.particles, coefficient[slot] = c.coefficient, normal[slot] = c.normal;
+    distance[slot] = c.distance, lambda[slot] = 0, friction[slot] = c.friction;
+    staticFriction[slot] = c.staticFriction, restitution[slot] = c.restitution;
+    stickiness[slot] = c.stickiness, approachSpeed[slot] = c.approachSpeed;
+  }
   void resize(std::size_t n) {
     particles.resize(n), coefficient.resize(n), normal.resize(n), distance.resize(n);
     lambda.resize(n), friction.resize(n), staticFriction.resize(n), restitution.resize(n);

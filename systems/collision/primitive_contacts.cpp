@@ -17,6 +17,8 @@ namespace {
 
 constexpr std::size_t kPairGrain = 1024;
 constexpr std::size_t kParticleGrain = 1024;
+// Candidates per chunk of the narrow phase: its unit of parallel work and of output order.
+constexpr std::size_t kContactChunk = 1024;
 // Rounds of the fail-safe before it gives up and reports the pairs left (each round stops at
 // least one more particle, so this bounds the work, not the outcome of realistic scenes).
 constexpr int kMaxFailsafeRounds = 64;
@@ -148,7 +150,7 @@ double boxDistance(const PairView& v, const Vec3d* X) {
 
 // Makes the contact of candidate pair `v` if it may come within reach; false if it cannot.
 bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectSurface* surfaces,
-                 double& startDistance, PrimitiveContactPool& out, std::size_t slot, bool write) {
+                 double& startDistance, PrimitiveContactRecord& out) {
   Vec3d X0[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
   Vec3d X1[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
   for (int k = 0; k < v.count; ++k) {
@@ -189,7 +191,6 @@ bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectS
   // A non-finite prediction gets no contact, so that it cannot spread to the pair's other
   // particles; the update resets and counts it.
   if (!std::isfinite(motion) || !std::isfinite(endDistance)) return false;
-  if (!write) return true;
 
   // The configuration the contact is linearised at: where the pair first comes within its
   // contact distance if it does during the predicted motion, else the predicted end.
@@ -217,22 +218,20 @@ bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectS
 
   const ObjectSurface& a = surfaces[v.objectA];
   const ObjectSurface& b = surfaces[v.objectB];
-  out.particles[slot] = {v.id[0], v.id[1], v.id[2], v.id[3]};
-  std::array<Real, 4> coefficient{};
+  out.particles = {v.id[0], v.id[1], v.id[2], v.id[3]};
   Vec3d relativeVelocity = Vec3d::Zero();
   for (int k = 0; k < v.count; ++k) {
-    coefficient[k] = static_cast<Real>(c[k]);
+    out.coefficient[k] = static_cast<Real>(c[k]);
     relativeVelocity += c[k] * particles.v[v.id[k]].cast<double>();
   }
-  out.coefficient[slot] = coefficient;
-  out.normal[slot] = n.cast<Real>();
-  out.distance[slot] = v.radius;
-  out.lambda[slot] = 0;
-  out.friction[slot] = (a.friction + b.friction) / 2;
-  out.staticFriction[slot] = (a.staticFriction + b.staticFriction) / 2;
-  out.restitution[slot] = std::max(a.restitution, b.restitution);
-  out.stickiness[slot] = std::max(a.stickiness, b.stickiness);
-  out.approachSpeed[slot] = static_cast<Real>(n.dot(relativeVelocity));
+  for (int k = v.count; k < 4; ++k) out.coefficient[k] = 0;
+  out.normal = n.cast<Real>();
+  out.distance = v.radius;
+  out.friction = (a.friction + b.friction) / 2;
+  out.staticFriction = (a.staticFriction + b.staticFriction) / 2;
+  out.restitution = std::max(a.restitution, b.restitution);
+  out.stickiness = std::max(a.stickiness, b.stickiness);
+  out.approachSpeed = static_cast<Real>(n.dot(relativeVelocity));
   return true;
 }
 
@@ -379,48 +378,41 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
                              const CollisionPrimitives& primitives, const ParticlePool& particles) {
   const ObjectSurface* surfaces = primitives.objectSurface.data();
   const std::size_t n = candidates.size();
-  contacts.slotOfCandidate.resize(n + 1);
   contacts.startDistance.resize(n);
   contacts.suspect.resize(n);
-  // Pass 1: which candidates become contacts (and their start distance).
+  // One pass: each fixed chunk of candidates keeps its contacts in candidate order, and the
+  // chunks are concatenated in order, whatever the thread count.
+  const std::size_t chunks = (n + kContactChunk - 1) / kContactChunk;
+  if (contacts.chunkContacts.size() < chunks) contacts.chunkContacts.resize(chunks);
   tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, n, kPairGrain),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          const PairView v =
-              viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
-          contacts.slotOfCandidate[i] =
-              makeContact(v, particles, surfaces, contacts.startDistance[i], contacts, 0, false)
-                  ? 1
-                  : 0;
+      tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t chunk = r.begin(); chunk != r.end(); ++chunk) {
+          std::vector<PrimitiveContactRecord>& made = contacts.chunkContacts[chunk];
+          made.clear();
+          const std::size_t end = std::min(n, (chunk + 1) * kContactChunk);
+          PrimitiveContactRecord record;
+          for (std::size_t i = chunk * kContactChunk; i < end; ++i) {
+            const PairView v =
+                viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
+            if (makeContact(v, particles, surfaces, contacts.startDistance[i], record))
+              made.push_back(record);
+          }
         }
       });
-  // Exclusive scan: places in candidate order, whatever the thread count.
-  contacts.slotOfCandidate[n] = 0;
-  tbb::parallel_scan(
-      tbb::blocked_range<std::size_t>(0, n + 1, kPairGrain), Index{0},
-      [&](const tbb::blocked_range<std::size_t>& r, Index sum, bool final) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          const Index here = contacts.slotOfCandidate[i];
-          if (final) contacts.slotOfCandidate[i] = sum;
-          sum += here;
-        }
-        return sum;
-      },
-      std::plus<>());
-  contacts.resize(contacts.slotOfCandidate[n]);
-  // Pass 2: the contacts themselves.
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, n, kPairGrain),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          if (contacts.slotOfCandidate[i] == contacts.slotOfCandidate[i + 1]) continue;
-          const PairView v =
-              viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
-          double ignored = 0;
-          makeContact(v, particles, surfaces, ignored, contacts, contacts.slotOfCandidate[i], true);
-        }
-      });
+  contacts.chunkOffset.resize(chunks + 1);
+  contacts.chunkOffset[0] = 0;
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk)
+    contacts.chunkOffset[chunk + 1] =
+        contacts.chunkOffset[chunk] + contacts.chunkContacts[chunk].size();
+  contacts.resize(contacts.chunkOffset[chunks]);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t chunk = r.begin(); chunk != r.end(); ++chunk) {
+                        std::size_t slot = contacts.chunkOffset[chunk];
+                        for (const PrimitiveContactRecord& c : contacts.chunkContacts[chunk])
+                          contacts.store(slot++, c);
+                      }
+                    });
   buildIncidence(contacts, particles.size());
 }
 
