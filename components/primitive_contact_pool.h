@@ -31,6 +31,7 @@ struct PrimitiveContactRecord {
   Vec3 normal = Vec3::Zero();
   Real distance = 0, friction = 0, staticFriction = 0, restitution = 0, stickiness = 0;
   Real approachSpeed = 0;
+  Real inverseMass = 0;
 };
 
 struct PrimitiveContactPool {
@@ -46,6 +47,7 @@ struct PrimitiveContactPool {
   std::vector<Real> restitution;    // e of the pair
   std::vector<Real> stickiness;     // separation (m) beyond `distance` that is still pulled back
   std::vector<Real> approachSpeed;  // n · Σ c_k v_k when the contact was made (< 0: closing)
+  std::vector<Real> inverseMass;    // Σ w_k c_k²: the generalised inverse mass along n
 
   // Per-contact scratch of the parallel backends: the step Δλ of the last projection.
   std::vector<Real> step;
@@ -77,11 +79,13 @@ struct PrimitiveContactPool {
     distance[slot] = c.distance, lambda[slot] = 0, friction[slot] = c.friction;
     staticFriction[slot] = c.staticFriction, restitution[slot] = c.restitution;
     stickiness[slot] = c.stickiness, approachSpeed[slot] = c.approachSpeed;
+    inverseMass[slot] = c.inverseMass;
   }
   void resize(std::size_t n) {
     particles.resize(n), coefficient.resize(n), normal.resize(n), distance.resize(n);
     lambda.resize(n), friction.resize(n), staticFriction.resize(n), restitution.resize(n);
-    stickiness.resize(n), approachSpeed.resize(n), step.resize(n), tangentStep.resize(n);
+    stickiness.resize(n), approachSpeed.resize(n), inverseMass.resize(n), step.resize(n),
+        tangentStep.resize(n);
   }
 };
 

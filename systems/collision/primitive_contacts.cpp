@@ -232,17 +232,11 @@ bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectS
   out.restitution = std::max(a.restitution, b.restitution);
   out.stickiness = std::max(a.stickiness, b.stickiness);
   out.approachSpeed = static_cast<Real>(n.dot(relativeVelocity));
+  // Σ w_k c_k²: the generalised inverse mass along the normal (w does not change in a substep).
+  out.inverseMass = 0;
+  for (int k = 0; k < 4; ++k)
+    out.inverseMass += particles.w[out.particles[k]] * out.coefficient[k] * out.coefficient[k];
   return true;
-}
-
-// Σ w_k c_k²: the generalised inverse mass of a contact along its normal.
-Real inverseMass(const PrimitiveContactPool& pool, const ParticlePool& particles, std::size_t c) {
-  Real sum = 0;
-  for (int k = 0; k < 4; ++k) {
-    const Real ck = pool.coefficient[c][k];
-    sum += particles.w[pool.particles[c][k]] * ck * ck;
-  }
-  return sum;
 }
 
 // The step Δλ of contact c at the current positions: C = n · Σ c_k p_k − distance must not be
@@ -252,7 +246,7 @@ Real contactStep(const PrimitiveContactPool& pool, const ParticlePool& particles
   for (int k = 0; k < 4; ++k) sum += pool.coefficient[c][k] * particles.p[pool.particles[c][k]];
   const Real C = pool.normal[c].dot(sum) - pool.distance[c];
   if (C >= pool.stickiness[c] || (C >= 0 && pool.stickiness[c] == 0)) return 0;
-  const Real m = inverseMass(pool, particles, c);
+  const Real m = pool.inverseMass[c];
   return m > 0 ? -C / m : Real(0);
 }
 
@@ -271,7 +265,7 @@ Vec3 frictionStep(const PrimitiveContactPool& pool, const ParticlePool& particle
   const Vec3 tangential = d - n * n.dot(d);
   const Real length = tangential.norm();
   if (!(length > 0)) return Vec3::Zero();
-  const Real m = inverseMass(pool, particles, c);
+  const Real m = pool.inverseMass[c];
   if (!(m > 0)) return Vec3::Zero();
   const Real removed = length <= pool.staticFriction[c] * lambda
                            ? Real(1)
@@ -424,7 +418,7 @@ void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& part
     for (std::size_t c = 0; c < n; ++c) {
       const Real step = contactStep(contacts, particles, c);
       if (step == 0) continue;
-      contacts.lambda[c] += step * inverseMass(contacts, particles, c);
+      contacts.lambda[c] += step * contacts.inverseMass[c];
       const Vec3 push = step * contacts.normal[c];
       for (int k = 0; k < 4; ++k) {
         const Index i = contacts.particles[c][k];
@@ -437,8 +431,7 @@ void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& part
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t c = r.begin(); c != r.end(); ++c) {
                         contacts.step[c] = contactStep(contacts, particles, c);
-                        contacts.lambda[c] +=
-                            contacts.step[c] * inverseMass(contacts, particles, c);
+                        contacts.lambda[c] += contacts.step[c] * contacts.inverseMass[c];
                       }
                     });
   gatherCorrections(contacts, particles,
@@ -596,7 +589,7 @@ void applyRestitution(const PrimitiveContactPool& contacts, ParticlePool& partic
     const Real target = -e * contacts.approachSpeed[c];
     const Real missing = target - n.dot(relative);
     if (missing <= 0) continue;
-    const Real m = inverseMass(contacts, particles, c);
+    const Real m = contacts.inverseMass[c];
     if (!(m > 0)) continue;
     for (int k = 0; k < 4; ++k) {
       const Index i = contacts.particles[c][k];
