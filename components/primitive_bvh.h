@@ -68,8 +68,7 @@ class PrimitiveBvh {
   // Calls visit(context, a, b, count) with batches of the pairs (a[k], b[k]) of a primitive of
   // `treeA` and one of `treeB` whose boxes overlap: every such pair, in no particular order and
   // from many threads at once (Embree's dual-tree rtcCollide, which tests boxes four or eight at
-  // a time). A tree met with itself reports each pair both ways and may report a primitive with
-  // itself. Call between two commits.
+  // a time). A tree met with itself reports each pair once, as a < b. Call between two commits.
   using PairVisitor = void (*)(void* context, const Index* a, const Index* b, std::size_t count);
   void forEachOverlappingPair(BvhTree treeA, BvhTree treeB, PairVisitor visit, void* context) const;
 

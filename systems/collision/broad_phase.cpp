@@ -84,8 +84,6 @@ void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
       particlesB = prims.triangleParticles[second];
       objectA = prims.pointObject[first], objectB = prims.triangleObject[second];
     } else if constexpr (kKind == PairKind::EdgeEdge) {
-      // A tree met with itself: each pair once, in order.
-      if (first >= second) continue;
       particlesA = prims.edgeParticles[first];
       particlesB = prims.edgeParticles[second];
       objectA = prims.edgeObject[first], objectB = prims.edgeObject[second];
@@ -95,8 +93,8 @@ void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
       particlesB = prims.edgeParticles[second];
       objectA = prims.pointObject[first], objectB = prims.edgeObject[second];
     } else {
+      // The tree's points ascend, so first < second still holds.
       first = f.isolatedPoints[first], second = f.isolatedPoints[second];
-      if (first >= second) continue;
       particlesA = {&prims.pointParticle[first], 1};
       particlesB = {&prims.pointParticle[second], 1};
       objectA = prims.pointObject[first], objectB = prims.pointObject[second];

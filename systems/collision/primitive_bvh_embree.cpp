@@ -102,6 +102,7 @@ struct CollideQuery {
   const PrimitiveBox* boxesB;
   PrimitiveBvh::PairVisitor visit;
   void* context;
+  bool self;  // a tree met with itself: Embree reports (a, b) and (b, a), and (a, a)
 };
 
 // Embree reports pairs of leaf primitives whose leaves' bounds overlap (user geometry): the exact
@@ -113,6 +114,7 @@ void onCollisions(void* user, RTCCollision* collisions, unsigned count) {
   std::size_t kept = 0;
   for (unsigned i = 0; i < count; ++i) {
     const RTCCollision& c = collisions[i];
+    if (q.self && c.primID0 >= c.primID1) continue;
     if (!overlaps(q.boxesA[c.primID0], q.boxesB[c.primID1])) continue;
     a[kept] = c.primID0, b[kept] = c.primID1;
     if (++kept == kBatch) q.visit(q.context, a, b, kept), kept = 0;
@@ -156,7 +158,7 @@ void PrimitiveBvh::forEachOverlappingPair(BvhTree treeA, BvhTree treeB, PairVisi
                                           void* context) const {
   const std::size_t a = static_cast<std::size_t>(treeA), b = static_cast<std::size_t>(treeB);
   if (!embree_ || !embree_->scene[a] || !embree_->scene[b]) return;
-  CollideQuery query{boxes[a].data(), boxes[b].data(), visit, context};
+  CollideQuery query{boxes[a].data(), boxes[b].data(), visit, context, a == b};
   rtcCollide(embree_->scene[a], embree_->scene[b], &onCollisions, &query);
 }
 
