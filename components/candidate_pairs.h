@@ -33,9 +33,15 @@ struct CandidatePairs {
   std::vector<Index> first;
   std::vector<Index> second;
 
-  // Per particle: where it must stay for the set to be complete.
+  // Per particle: the box of the motion the pairs were found for (the primitives' boxes cover
+  // their particles' motion boxes), and where it must stay for the set to be complete: the
+  // motion box grown by the bound slack (broad_phase.h, boundSlack).
+  std::vector<Vec3> motionLower;
+  std::vector<Vec3> motionUpper;
   std::vector<Vec3> boundLower;
   std::vector<Vec3> boundUpper;
+  // Scratch: the end of each particle's extrapolated motion (predictMotionEnd).
+  std::vector<Vec3> motionEnd;
 
   std::size_t size() const { return kind.size(); }
   void clear() { kind.clear(), first.clear(), second.clear(); }

@@ -18,6 +18,7 @@
 #include <memory>
 #include <vector>
 
+#include "components/candidate_pairs.h"
 #include "nucleon/types.h"
 
 namespace nucleon {
@@ -65,6 +66,11 @@ class PrimitiveBvh {
   // built from scratch. A tree without boxes holds no Embree scene.
   bool commit();
 
+  // Calls visit(context, i) once for every primitive i of `tree` whose box overlaps `query`, in no
+  // particular order. Safe to call from many threads at once between two commits.
+  using Visitor = void (*)(void* context, Index primitive);
+  void forEachOverlap(BvhTree tree, const PrimitiveBox& query, Visitor visit, void* context) const;
+
   // Calls visit(context, a, b, count) with batches of the pairs (a[k], b[k]) of a primitive of
   // `treeA` and one of `treeB` whose boxes overlap: every such pair, in no particular order and
   // from many threads at once (Embree's dual-tree rtcCollide, which tests boxes four or eight at
@@ -86,6 +92,14 @@ class PrimitiveBvh {
   // Pairs found by each thread of the arena (by its index in it), as first << 32 | second,
   // before they are put in order.
   std::vector<std::vector<std::uint64_t>> threadPairs;
+  // Incremental re-detection: which particles grew their motion box, the primitives with one
+  // (points, edges, triangles), the new pairs of each kind, and the merged pair lists.
+  std::vector<std::uint8_t> grownParticle;
+  std::array<std::vector<Index>, 3> changedPrimitives;
+  std::array<std::vector<std::uint64_t>, 4> newPairs;
+  std::vector<PairKind> mergedKind;
+  std::vector<Index> mergedFirst;
+  std::vector<Index> mergedSecond;
 
  private:
   struct Embree;

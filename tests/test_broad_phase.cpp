@@ -331,6 +331,77 @@ TEST(BroadPhase, RefitsWhileTheCountsStayAndRebuildsWhenTheyChange) {
   EXPECT_EQ(bvh.embreeErrors(), 0u);
 }
 
+// The incremental re-detection: after some particles leave their bounds, the extended set holds
+// every pair the brute force finds over the grown motion boxes (the completeness the fail-safe
+// rests on), keeps every pair it had, stays in order with no pair twice and follows the pair
+// rules; the same for one and two threads; and it declines, changing nothing, when too many
+// particles left their bounds.
+TEST(BroadPhase, IncrementalRedetectionCoversTheGrownMotion) {
+  for (unsigned seed : {3u, 4u, 5u}) {
+    for (Scene s : {randomScene(seed), foldedCloth(24, seed)}) {
+      const Real slack = boundSlack(s.primitives, s.margin);
+      std::array<CandidatePairs, 2> extended;
+      for (int threads : {1, 2}) {
+        CandidatePairs& pairs = extended[static_cast<std::size_t>(threads - 1)];
+        PrimitiveBvh bvh;
+        tbb::task_arena(threads).execute([&] {
+          findCandidatePairs(pairs, bvh, s.primitives, s.x, s.p, s.w, s.margin);
+          setMotionBounds(pairs, s.x, s.p);
+          growParticleBounds(pairs, slack);
+        });
+        const CandidatePairs before = pairs;
+        // A few particles (one in twenty) pushed well off their course.
+        std::vector<Vec3> moved = s.p;
+        std::mt19937 random(seed);
+        std::uniform_real_distribution<double> push(-0.1, 0.1);
+        std::size_t off = 0;
+        for (std::size_t i = 0; i < moved.size(); i += 20, ++off)
+          moved[i] += Vec3(Real(push(random)), Real(0.2), Real(push(random)));
+        bool extendedOk = false;
+        tbb::task_arena(threads).execute([&] {
+          extendedOk = extendCandidatePairs(pairs, bvh, s.primitives, moved, s.x, moved, s.w,
+                                            s.margin, slack);
+        });
+        ASSERT_TRUE(extendedOk);
+        expectPairRules(s, pairs);
+        // Every particle is now inside its bounds, and the bounds are the motion boxes grown.
+        EXPECT_TRUE(withinParticleBounds(pairs, moved));
+        // Complete for the grown motion boxes.
+        CandidatePairs reference;
+        findCandidatePairsBruteForce(reference, s.primitives, pairs.motionLower, pairs.motionUpper,
+                                     s.w, s.margin);
+        std::set<std::tuple<PairKind, Index, Index>> have;
+        for (std::size_t k = 0; k < pairs.size(); ++k)
+          have.insert({pairs.kind[k], pairs.first[k], pairs.second[k]});
+        for (std::size_t k = 0; k < reference.size(); ++k)
+          ASSERT_TRUE(have.count({reference.kind[k], reference.first[k], reference.second[k]}))
+              << "missing pair " << k << " (seed " << seed << ")";
+        for (std::size_t k = 0; k < before.size(); ++k)
+          ASSERT_TRUE(have.count({before.kind[k], before.first[k], before.second[k]}));
+        EXPECT_GT(pairs.size(), before.size());
+        EXPECT_GT(off, 0u);
+        EXPECT_EQ(bvh.embreeErrors(), 0u);
+      }
+      expectSamePairs(extended[0], extended[1]);
+    }
+  }
+  // Every particle off its course: declined, nothing changed.
+  Scene s = randomScene(9);
+  const Real slack = boundSlack(s.primitives, s.margin);
+  CandidatePairs pairs;
+  PrimitiveBvh bvh;
+  findCandidatePairs(pairs, bvh, s.primitives, s.x, s.p, s.w, s.margin);
+  setMotionBounds(pairs, s.x, s.p);
+  growParticleBounds(pairs, slack);
+  const CandidatePairs before = pairs;
+  std::vector<Vec3> moved = s.p;
+  for (Vec3& position : moved) position += Vec3(0, 1, 0);
+  EXPECT_FALSE(
+      extendCandidatePairs(pairs, bvh, s.primitives, moved, s.x, moved, s.w, s.margin, slack));
+  expectSamePairs(pairs, before);
+  EXPECT_TRUE(pairs.boundLower == before.boundLower);
+}
+
 TEST(BroadPhase, NoPairSharesAParticle) {
   // Every cloth vertex is within reach of its own triangles and edges: all of those are dropped.
   const Scene s = foldedCloth(12, 9);

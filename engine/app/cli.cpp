@@ -283,6 +283,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
     stats["collisions"] = {
         {"broad_phases", c.broadPhases},
         {"broad_phase_refreshes", c.broadPhaseRefreshes},
+        {"incremental_broad_phases", c.incrementalBroadPhases},
         {"solve_redetections", c.solveRedetections},
         {"collider_redetections", c.colliderRedetections},
         {"candidate_pairs", c.candidatePairs},

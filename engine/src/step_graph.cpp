@@ -126,14 +126,24 @@ void StepGraph::runStage(int stage) {
         if (c.substep > 0 && withinParticleBounds(s.candidates, s.particles.p)) return;
         const ParticlePool& particles = s.particles;
         CandidatePairs& pairs = s.candidates;
-        predictMotionBounds(pairs, particles.x, particles.p, particles.w, s.gravity, c.h,
-                            c.substeps - c.substep);
-        // A primitive's box is the box of its particles' motion boxes, which are the two corners.
-        findCandidatePairs(pairs, s.bvh, s.primitives, pairs.boundLower, pairs.boundUpper,
-                           particles.w, kPrimitiveContactMargin);
-        growParticleBounds(pairs, boundSlack(s.primitives, kPrimitiveContactMargin));
+        const Real slack = boundSlack(s.primitives, kPrimitiveContactMargin);
+        predictMotionEnd(pairs.motionEnd, particles.x, particles.p, particles.w, s.gravity, c.h,
+                         c.substeps - c.substep);
         ++report.broadPhases;
-        if (c.substep > 0) ++report.broadPhaseRefreshes;
+        if (c.substep > 0) {
+          ++report.broadPhaseRefreshes;
+          // Few particles off their course: only theirs are found again.
+          if (extendCandidatePairs(pairs, s.bvh, s.primitives, particles.p, particles.x,
+                                   pairs.motionEnd, particles.w, kPrimitiveContactMargin, slack)) {
+            ++report.incrementalBroadPhases;
+            return;
+          }
+        }
+        setMotionBounds(pairs, particles.x, pairs.motionEnd);
+        // A primitive's box is the box of its particles' motion boxes, which are the two corners.
+        findCandidatePairs(pairs, s.bvh, s.primitives, pairs.motionLower, pairs.motionUpper,
+                           particles.w, kPrimitiveContactMargin);
+        growParticleBounds(pairs, slack);
       });
       profile.narrowPhase += timed([&] {
         detectPrimitiveContacts(s.primitiveContacts, s.candidates, s.primitives, s.particles);
@@ -154,6 +164,7 @@ void StepGraph::runStage(int stage) {
       report.clampedParticles += crossing.clamped;
       report.broadPhases += solve.redetections;
       report.solveRedetections += solve.redetections;
+      report.incrementalBroadPhases += solve.incrementalRedetections;
       report.colliderRedetections += solve.colliderRedetections;
       report.crossings += crossing.crossings;
       report.stoppedParticles += crossing.stopped;

@@ -49,6 +49,9 @@ struct CollisionReport {
   std::uint64_t broadPhases = 0;          // broad-phase runs: one per step, plus the refreshes
   std::uint64_t broadPhaseRefreshes = 0;  // runs within a step: a prediction left its bounds
   std::uint64_t solveRedetections = 0;    // runs after a solve that left the bounds
+  // Refreshes and re-detections that found again only the pairs of the primitives whose particles
+  // had left their bounds (few of them), rather than every pair.
+  std::uint64_t incrementalBroadPhases = 0;
   // Collider contact pools refilled after the multigrid cascade had carried a particle without
   // a contact within a collider's reach (particle_contacts.h, detectContacts).
   std::uint64_t colliderRedetections = 0;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <tuple>
 #include <vector>
 
 #include <tbb/blocked_range.h>
@@ -65,6 +66,21 @@ struct PairFilter {
   std::vector<std::vector<std::uint64_t>>* found;  // one list per thread of the arena
 };
 
+// Whether two primitives whose boxes overlap are a pair: they share no particle, one of them can
+// move, and their objects collide.
+bool admissible(const CollisionPrimitives& prims, const Real* w, std::span<const Index> particlesA,
+                std::uint32_t objectA, std::span<const Index> particlesB, std::uint32_t objectB) {
+  bool shared = false, free = false;
+  for (Index i : particlesA) {
+    for (Index j : particlesB) shared |= i == j;
+    free |= w[i] != 0;
+  }
+  if (shared) return false;
+  for (Index j : particlesB) free |= w[j] != 0;
+  if (!free) return false;
+  return prims.excludedPairs.empty() || !prims.excluded(objectA, objectB);
+}
+
 // The filters every pair of overlapping boxes goes through, in the order of their cost; a pair
 // kept is stored as first << 32 | second in the running thread's list.
 template <PairKind kKind>
@@ -99,15 +115,7 @@ void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
       particlesB = {&prims.pointParticle[second], 1};
       objectA = prims.pointObject[first], objectB = prims.pointObject[second];
     }
-    bool shared = false, free = false;
-    for (Index i : particlesA) {
-      for (Index j : particlesB) shared |= i == j;
-      free |= f.w[i] != 0;
-    }
-    if (shared) continue;
-    for (Index j : particlesB) free |= f.w[j] != 0;
-    if (!free) continue;
-    if (!prims.excludedPairs.empty() && prims.excluded(objectA, objectB)) continue;
+    if (!admissible(prims, f.w, particlesA, objectA, particlesB, objectB)) continue;
     found.push_back(std::uint64_t{first} << 32 | second);
   }
 }
@@ -251,32 +259,29 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
   return stats;
 }
 
-void predictMotionBounds(CandidatePairs& pairs, std::span<const Vec3> x, std::span<const Vec3> p,
-                         std::span<const Real> w, const Vec3& g, Real h, int remaining) {
-  pairs.boundLower.resize(x.size());
-  pairs.boundUpper.resize(x.size());
+void predictMotionEnd(std::vector<Vec3>& end, std::span<const Vec3> x, std::span<const Vec3> p,
+                      std::span<const Real> w, const Vec3& g, Real h, int remaining) {
+  end.resize(x.size());
   const Real steps = static_cast<Real>(remaining);
   const Vec3 fall = (steps * (steps - 1) / 2 * h * h) * g;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, x.size(), kBoxGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        Vec3 end = x[i] + steps * (p[i] - x[i]);
-                        if (w[i] > 0) end += fall;
-                        pairs.boundLower[i] = x[i].cwiseMin(end);
-                        pairs.boundUpper[i] = x[i].cwiseMax(end);
+                        end[i] = x[i] + steps * (p[i] - x[i]);
+                        if (w[i] > 0) end[i] += fall;
                       }
                     });
 }
 
 void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start,
                      std::span<const Vec3> end) {
-  pairs.boundLower.resize(start.size());
-  pairs.boundUpper.resize(start.size());
+  pairs.motionLower.resize(start.size());
+  pairs.motionUpper.resize(start.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, start.size(), kBoxGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        pairs.boundLower[i] = start[i].cwiseMin(end[i]);
-                        pairs.boundUpper[i] = start[i].cwiseMax(end[i]);
+                        pairs.motionLower[i] = start[i].cwiseMin(end[i]);
+                        pairs.motionUpper[i] = start[i].cwiseMax(end[i]);
                       }
                     });
 }
@@ -286,11 +291,13 @@ Real boundSlack(const CollisionPrimitives& primitives, Real margin) {
 }
 
 void growParticleBounds(CandidatePairs& pairs, Real slack) {
+  pairs.boundLower.resize(pairs.motionLower.size());
+  pairs.boundUpper.resize(pairs.motionUpper.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.boundLower.size(), kBoxGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        pairs.boundLower[i].array() -= slack;
-                        pairs.boundUpper[i].array() += slack;
+                        pairs.boundLower[i] = pairs.motionLower[i].array() - slack;
+                        pairs.boundUpper[i] = pairs.motionUpper[i].array() + slack;
                       }
                     });
 }
@@ -308,6 +315,240 @@ bool withinParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p) 
       },
       std::plus<>());
   return outside == 0;
+}
+
+namespace {
+
+bool outsideBounds(const CandidatePairs& pairs, const Vec3& position, std::size_t i) {
+  // Written so that a non-finite coordinate does not count as outside.
+  return (position.array() < pairs.boundLower[i].array()).any() ||
+         (position.array() > pairs.boundUpper[i].array()).any();
+}
+
+// One query of the incremental re-detection: a changed primitive (`self`) against a tree, each
+// partner the tree reports made a pair (first, second) of `kind` and kept if admissible.
+struct ExtensionQuery {
+  const CollisionPrimitives* primitives;
+  const Real* w;
+  const Index* isolatedPoints;
+  std::vector<std::uint64_t>* found;
+  PairKind kind;
+  Index self;
+  bool selfFirst;        // the query primitive is the pair's first
+  bool partnerIsolated;  // the tree is IsolatedPoints: its primitives map to points
+};
+
+std::span<const Index> particlesOf(const CollisionPrimitives& prims, PairKind kind, bool first,
+                                   Index i) {
+  const bool point = first ? kind != PairKind::EdgeEdge : kind == PairKind::VertexVertex;
+  if (point) return {&prims.pointParticle[i], 1};
+  if (!first && kind == PairKind::VertexFace) return prims.triangleParticles[i];
+  return prims.edgeParticles[i];
+}
+
+std::uint32_t objectOf(const CollisionPrimitives& prims, PairKind kind, bool first, Index i) {
+  const bool point = first ? kind != PairKind::EdgeEdge : kind == PairKind::VertexVertex;
+  if (point) return prims.pointObject[i];
+  if (!first && kind == PairKind::VertexFace) return prims.triangleObject[i];
+  return prims.edgeObject[i];
+}
+
+void keepExtension(void* raw, Index partner) {
+  const ExtensionQuery& q = *static_cast<const ExtensionQuery*>(raw);
+  if (q.partnerIsolated) partner = q.isolatedPoints[partner];
+  Index first = q.selfFirst ? q.self : partner, second = q.selfFirst ? partner : q.self;
+  if (q.kind == PairKind::EdgeEdge || q.kind == PairKind::VertexVertex) {
+    if (first == second) return;
+    if (first > second) std::swap(first, second);
+  }
+  const CollisionPrimitives& prims = *q.primitives;
+  if (!admissible(prims, q.w, particlesOf(prims, q.kind, true, first),
+                  objectOf(prims, q.kind, true, first), particlesOf(prims, q.kind, false, second),
+                  objectOf(prims, q.kind, false, second)))
+    return;
+  q.found->push_back(std::uint64_t{first} << 32 | second);
+}
+
+}  // namespace
+
+bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
+                          const CollisionPrimitives& primitives, std::span<const Vec3> position,
+                          std::span<const Vec3> start, std::span<const Vec3> end,
+                          std::span<const Real> w, Real margin, Real slack) {
+  const std::size_t n = position.size();
+  const std::size_t points = primitives.points(), edges = primitives.edges(),
+                    triangles = primitives.triangles();
+  auto& triangleBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::Triangles)];
+  auto& edgeBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::Edges)];
+  auto& isolatedBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::IsolatedPoints)];
+  auto& pointBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::Points)];
+  // The trees and motion boxes of the last findCandidatePairs must still fit the primitives.
+  if (pairs.boundLower.size() != n || pairs.motionLower.size() != n ||
+      triangleBoxes.size() != triangles || edgeBoxes.size() != edges ||
+      pointBoxes.size() != (triangles > 0 ? points : 0) ||
+      isolatedBoxes.size() != bvh.isolatedPoints.size() ||
+      bvh.builtCount(BvhTree::Triangles) != triangles || bvh.builtCount(BvhTree::Edges) != edges)
+    return false;
+
+  std::vector<std::uint8_t>& grown = bvh.grownParticle;
+  grown.assign(n, 0);
+  std::size_t outside = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (outsideBounds(pairs, position[i], i)) grown[i] = 1, ++outside;
+  if (outside == 0) return true;
+  if (outside * kExtendShare > n) return false;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!grown[i]) continue;
+    pairs.motionLower[i] = pairs.motionLower[i].cwiseMin(start[i].cwiseMin(end[i]));
+    pairs.motionUpper[i] = pairs.motionUpper[i].cwiseMax(start[i].cwiseMax(end[i]));
+    pairs.boundLower[i] = pairs.motionLower[i].array() - slack;
+    pairs.boundUpper[i] = pairs.motionUpper[i].array() + slack;
+  }
+
+  // The primitives with a grown particle, and their new boxes.
+  auto& changedPoints = bvh.changedPrimitives[0];
+  auto& changedEdges = bvh.changedPrimitives[1];
+  auto& changedTriangles = bvh.changedPrimitives[2];
+  for (auto& list : bvh.changedPrimitives) list.clear();
+  const std::span<const Vec3> lower = pairs.motionLower, upper = pairs.motionUpper;
+  for (std::size_t i = 0; i < points; ++i)
+    if (grown[primitives.pointParticle[i]]) {
+      changedPoints.push_back(static_cast<Index>(i));
+      const PrimitiveBox box = sweptBox(pointParticles(primitives, i), lower, upper,
+                                        primitives.pointRadius[i] + margin / 2);
+      if (triangles > 0) pointBoxes[i] = box;
+      if (primitives.pointIsolated[i]) {
+        const auto k = std::lower_bound(bvh.isolatedPoints.begin(), bvh.isolatedPoints.end(),
+                                        static_cast<Index>(i)) -
+                       bvh.isolatedPoints.begin();
+        isolatedBoxes[static_cast<std::size_t>(k)] = box;
+      }
+    }
+  for (std::size_t e = 0; e < edges; ++e) {
+    const auto& ends = primitives.edgeParticles[e];
+    if (!grown[ends[0]] && !grown[ends[1]]) continue;
+    changedEdges.push_back(static_cast<Index>(e));
+    edgeBoxes[e] =
+        sweptBox(edgeParticles(primitives, e), lower, upper, primitives.edgeRadius[e] + margin / 2);
+  }
+  for (std::size_t t = 0; t < triangles; ++t) {
+    const auto& corners = primitives.triangleParticles[t];
+    if (!grown[corners[0]] && !grown[corners[1]] && !grown[corners[2]]) continue;
+    changedTriangles.push_back(static_cast<Index>(t));
+    triangleBoxes[t] = sweptBox(triangleParticles(primitives, t), lower, upper,
+                                primitives.triangleRadius[t] + margin / 2);
+  }
+  bvh.commit();
+
+  // The changed primitives' queries, kind by kind: each partner a tree reports is a pair with
+  // the query's primitive as its first or its second.
+  struct Search {
+    PairKind kind;
+    const std::vector<Index>* queries;
+    bool queryIsIsolated;  // queries are points, of which only the isolated ones take part
+    BvhTree tree;
+    bool selfFirst;
+  };
+  const std::array<Search, 6> searches = {{
+      {PairKind::VertexFace, &changedPoints, false, BvhTree::Triangles, true},
+      {PairKind::VertexFace, &changedTriangles, false, BvhTree::Points, false},
+      {PairKind::EdgeEdge, &changedEdges, false, BvhTree::Edges, true},
+      {PairKind::VertexEdge, &changedPoints, true, BvhTree::Edges, true},
+      {PairKind::VertexEdge, &changedEdges, false, BvhTree::IsolatedPoints, false},
+      {PairKind::VertexVertex, &changedPoints, true, BvhTree::IsolatedPoints, true},
+  }};
+  bvh.threadPairs.resize(
+      std::max<std::size_t>(bvh.threadPairs.size(), tbb::this_task_arena::max_concurrency()));
+  for (auto& list : bvh.newPairs) list.clear();
+  for (const Search& search : searches) {
+    if (bvh.builtCount(search.tree) == 0) continue;
+    for (std::vector<std::uint64_t>& found : bvh.threadPairs) found.clear();
+    const std::vector<Index>& queries = *search.queries;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), 64),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        std::vector<std::uint64_t>& found =
+                            bvh.threadPairs[static_cast<std::size_t>(
+                                tbb::this_task_arena::current_thread_index())];
+                        ExtensionQuery query{&primitives,
+                                             w.data(),
+                                             bvh.isolatedPoints.data(),
+                                             &found,
+                                             search.kind,
+                                             0,
+                                             search.selfFirst,
+                                             search.tree == BvhTree::IsolatedPoints};
+                        for (std::size_t k = r.begin(); k != r.end(); ++k) {
+                          const Index self = queries[k];
+                          const PrimitiveBox* box;
+                          if (search.queries == &changedEdges)
+                            box = &edgeBoxes[self];
+                          else if (search.queries == &changedTriangles)
+                            box = &triangleBoxes[self];
+                          else {
+                            if (search.queryIsIsolated && !primitives.pointIsolated[self]) continue;
+                            // The point's box is stored with its tree; recomputed for the isolated
+                            // ones.
+                            box = nullptr;
+                          }
+                          PrimitiveBox pointBox;
+                          if (!box) {
+                            pointBox = sweptBox(pointParticles(primitives, self), lower, upper,
+                                                primitives.pointRadius[self] + margin / 2);
+                            box = &pointBox;
+                          }
+                          query.self = self;
+                          bvh.forEachOverlap(search.tree, *box, &keepExtension, &query);
+                        }
+                      });
+    std::vector<std::uint64_t>& kindPairs = bvh.newPairs[static_cast<std::size_t>(search.kind)];
+    for (const std::vector<std::uint64_t>& found : bvh.threadPairs)
+      kindPairs.insert(kindPairs.end(), found.begin(), found.end());
+  }
+  for (auto& list : bvh.newPairs) {
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+  }
+
+  // Merged in (kind, first, second) order, by block copies between the places of the new pairs;
+  // a pair already in the set is kept once.
+  bvh.mergedKind.clear(), bvh.mergedFirst.clear(), bvh.mergedSecond.clear();
+  const auto keyOf = [&](std::size_t i) {
+    return std::tuple(pairs.kind[i], pairs.first[i], pairs.second[i]);
+  };
+  std::size_t copied = 0;
+  const auto copyUpTo = [&](std::size_t end) {
+    bvh.mergedKind.insert(bvh.mergedKind.end(), pairs.kind.begin() + copied,
+                          pairs.kind.begin() + end);
+    bvh.mergedFirst.insert(bvh.mergedFirst.end(), pairs.first.begin() + copied,
+                           pairs.first.begin() + end);
+    bvh.mergedSecond.insert(bvh.mergedSecond.end(), pairs.second.begin() + copied,
+                            pairs.second.begin() + end);
+    copied = end;
+  };
+  for (std::size_t kind = 0; kind < 4; ++kind)
+    for (const std::uint64_t key : bvh.newPairs[kind]) {
+      const auto pair = std::tuple(static_cast<PairKind>(kind), static_cast<Index>(key >> 32),
+                                   static_cast<Index>(key & 0xffffffffu));
+      // The first old pair not below the new one.
+      std::size_t low = copied, high = pairs.size();
+      while (low < high) {
+        const std::size_t middle = low + (high - low) / 2;
+        if (keyOf(middle) < pair)
+          low = middle + 1;
+        else
+          high = middle;
+      }
+      copyUpTo(low);
+      if (low < pairs.size() && keyOf(low) == pair) continue;  // already a pair
+      bvh.mergedKind.push_back(std::get<0>(pair));
+      bvh.mergedFirst.push_back(std::get<1>(pair));
+      bvh.mergedSecond.push_back(std::get<2>(pair));
+    }
+  copyUpTo(pairs.size());
+  pairs.kind.swap(bvh.mergedKind);
+  pairs.first.swap(bvh.mergedFirst);
+  pairs.second.swap(bvh.mergedSecond);
+  return true;
 }
 
 BroadPhaseStats findCandidatePairsBruteForce(CandidatePairs& out,

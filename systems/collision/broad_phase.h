@@ -68,18 +68,19 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
                                    const CollisionPrimitives& primitives, std::span<const Vec3> x,
                                    std::span<const Vec3> p, std::span<const Real> w, Real margin);
 
-// Each particle's motion box over the rest of the step, into pairs.boundLower/boundUpper: the
-// box of x and the extrapolated end of `remaining` substeps of length h, from the substep's
-// prediction p = x + h v. Free particles under the acceleration g end at
-// x + R (p − x) + R(R − 1)/2 h² g, where the explicit substeps would take them with no constraint
-// acting; particles of inverse mass 0 (pinned, kinematic) go on in a straight line. Only a guess:
-// the bounds, not the guess, are what completeness rests on. (Growing the box by a fraction of
-// the displacement, room for a course the constraints bend, measured worse on the collision
-// scenes: refreshes fell by a third, while the pairs, and the narrow phase over them, doubled.)
-void predictMotionBounds(CandidatePairs& pairs, std::span<const Vec3> x, std::span<const Vec3> p,
-                         std::span<const Real> w, const Vec3& g, Real h, int remaining);
+// The extrapolated end of each particle's motion over the rest of the step, into `end`: the
+// end of `remaining` substeps of length h, from the substep's prediction p = x + h v. Free
+// particles under the acceleration g end at x + R (p − x) + R(R − 1)/2 h² g, where the explicit
+// substeps would take them with no constraint acting; particles of inverse mass 0 (pinned,
+// kinematic) go on in a straight line. Only a guess: the bounds, not the guess, are what
+// completeness rests on. (Growing the box by a fraction of the displacement, room for a course
+// the constraints bend, measured worse on the collision scenes: refreshes fell by a third, while
+// the pairs, and the narrow phase over them, doubled.)
+void predictMotionEnd(std::vector<Vec3>& end, std::span<const Vec3> x, std::span<const Vec3> p,
+                      std::span<const Real> w, const Vec3& g, Real h, int remaining);
 
-// Each particle's motion box: the box of its positions in `start` and `end`.
+// Each particle's motion box, into pairs.motionLower/motionUpper: the box of its positions in
+// `start` and `end`.
 void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::span<const Vec3> end);
 
 // How far a particle may stray outside its motion box with no crossing escaping the candidate
@@ -92,8 +93,25 @@ void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::sp
 constexpr Real kBoundSlackFraction = Real(0.45);
 Real boundSlack(const CollisionPrimitives& primitives, Real margin);
 
-// Turns motion boxes into bounds: grows them by `slack`.
+// Turns motion boxes into bounds: boundLower/boundUpper are motionLower/motionUpper grown by
+// `slack`.
 void growParticleBounds(CandidatePairs& pairs, Real slack);
+
+// Makes the pairs complete again where some particles left their bounds, without finding them
+// all again (the incremental re-detection of I-Cloth, Tang et al. 2018): the motion box of each
+// particle whose `position` is outside its bounds grows to take in its motion from `start` to
+// `end`, and so do its bounds; the primitives with such a particle get their boxes again, the
+// trees are refit, those primitives are queried, and the pairs they make that are not yet in the
+// set are merged into it in order. Every other primitive keeps its box, and every pair of
+// primitives whose boxes now overlap is in the set, as after findCandidatePairs over the motion
+// boxes (the set may hold more: pairs of boxes that overlapped before). Returns false, changing
+// nothing, when more than 1/kExtendShare of the particles left their bounds, or the trees were
+// not built for the current primitives: a full findCandidatePairs is then the cheaper call.
+constexpr std::size_t kExtendShare = 8;
+bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
+                          const CollisionPrimitives& primitives, std::span<const Vec3> position,
+                          std::span<const Vec3> start, std::span<const Vec3> end,
+                          std::span<const Real> w, Real margin, Real slack);
 
 // Whether every particle's position in `p` lies inside its bounds. Particles with a non-finite
 // position are left to the update's counted repair and do not count as outside.

@@ -80,10 +80,18 @@ void finishPrimitiveContacts(SolvePools& pools, SolverKind kind, SolveReport& re
   applyPrimitiveFriction(pools.primitiveContacts, pools.particles, kind);
   ParticlePool& particles = pools.particles;
   if (!withinParticleBounds(pools.candidates, particles.p)) {
-    findCandidatePairs(pools.candidates, pools.bvh, pools.primitives, particles.x, particles.p,
-                       particles.w, kPrimitiveContactMargin);
-    setMotionBounds(pools.candidates, particles.x, particles.p);
-    growParticleBounds(pools.candidates, boundSlack(pools.primitives, kPrimitiveContactMargin));
+    const Real slack = boundSlack(pools.primitives, kPrimitiveContactMargin);
+    // Few particles off their course: only theirs are found again.
+    if (extendCandidatePairs(pools.candidates, pools.bvh, pools.primitives, particles.p,
+                             particles.x, particles.p, particles.w, kPrimitiveContactMargin,
+                             slack)) {
+      ++report.incrementalRedetections;
+    } else {
+      findCandidatePairs(pools.candidates, pools.bvh, pools.primitives, particles.x, particles.p,
+                         particles.w, kPrimitiveContactMargin);
+      setMotionBounds(pools.candidates, particles.x, particles.p);
+      growParticleBounds(pools.candidates, slack);
+    }
     measureStartDistances(pools.primitiveContacts, pools.candidates, pools.primitives, particles);
     ++report.redetections;
   }

@@ -62,9 +62,10 @@ struct SolvePools {
 // What one solve did, for the profile, the collision report and the repair log.
 struct SolveReport {
   double contactSeconds = 0;  // contact projection, friction and fail-safe: booked as collisions
-  std::size_t missedContacts = 0;        // particles pushed out of colliders they entered
-  std::size_t redetections = 0;          // candidate pairs found again after the sweeps
-  std::size_t colliderRedetections = 0;  // collider contacts found again after a cascade
+  std::size_t missedContacts = 0;           // particles pushed out of colliders they entered
+  std::size_t redetections = 0;             // candidate pairs found again after the sweeps
+  std::size_t incrementalRedetections = 0;  // of which only around the particles off course
+  std::size_t colliderRedetections = 0;     // collider contacts found again after a cascade
   std::size_t cascadeProjections = 0;
   CrossingReport crossing;
 };
