@@ -42,9 +42,14 @@ struct CandidatePairs {
   std::vector<Vec3> boundUpper;
   // Scratch: the end of each particle's extrapolated motion (predictMotionEnd).
   std::vector<Vec3> motionEnd;
+  // Right after an incremental re-detection (extendCandidatePairs): each pair's index in the set
+  // before it, or kNewPair for a pair it added, so that per-pair data can follow the pairs.
+  // Empty after a full broad phase.
+  static constexpr Index kNewPair = ~Index{0};
+  std::vector<Index> formerIndex;
 
   std::size_t size() const { return kind.size(); }
-  void clear() { kind.clear(), first.clear(), second.clear(); }
+  void clear() { kind.clear(), first.clear(), second.clear(), formerIndex.clear(); }
   void push_back(PairKind k, Index a, Index b) {
     kind.push_back(k), first.push_back(a), second.push_back(b);
   }

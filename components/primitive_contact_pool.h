@@ -68,6 +68,7 @@ struct PrimitiveContactPool {
   // Per candidate pair: its distance at the start of the substep; whether the fail-safe must test
   // it with CCD.
   std::vector<double> startDistance;
+  std::vector<double> formerStartDistance;  // scratch: the distances before a re-detection
   std::vector<std::uint8_t> suspect;
   // Per particle: the fail-safe round that last moved it, plus one (0: none), so that a round
   // re-tests only the pairs the one before changed.

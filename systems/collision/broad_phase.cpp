@@ -399,8 +399,8 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   if (outside * kExtendShare > n) return false;
   for (std::size_t i = 0; i < n; ++i) {
     if (!grown[i]) continue;
-    pairs.motionLower[i] = pairs.motionLower[i].cwiseMin(start[i].cwiseMin(end[i]));
-    pairs.motionUpper[i] = pairs.motionUpper[i].cwiseMax(start[i].cwiseMax(end[i]));
+    pairs.motionLower[i] = start[i].cwiseMin(end[i]);
+    pairs.motionUpper[i] = start[i].cwiseMax(end[i]);
     pairs.boundLower[i] = pairs.motionLower[i].array() - slack;
     pairs.boundUpper[i] = pairs.motionUpper[i].array() + slack;
   }
@@ -509,20 +509,43 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     list.erase(std::unique(list.begin(), list.end()), list.end());
   }
 
-  // Merged in (kind, first, second) order, by block copies between the places of the new pairs;
-  // a pair already in the set is kept once.
+  // Merged in (kind, first, second) order; a pair already in the set is kept once, and a pair of
+  // a changed primitive whose boxes no longer overlap is dropped, so that the set stays the one a
+  // full broad phase over these boxes would give.
   bvh.mergedKind.clear(), bvh.mergedFirst.clear(), bvh.mergedSecond.clear();
   const auto keyOf = [&](std::size_t i) {
     return std::tuple(pairs.kind[i], pairs.first[i], pairs.second[i]);
   };
+  const auto boxOf = [&](PairKind kind, bool first, Index i) -> PrimitiveBox {
+    const bool point = first ? kind != PairKind::EdgeEdge : kind == PairKind::VertexVertex;
+    if (point) {
+      if (triangles > 0) return pointBoxes[i];
+      return sweptBox(pointParticles(primitives, i), lower, upper,
+                      primitives.pointRadius[i] + margin / 2);
+    }
+    if (!first && kind == PairKind::VertexFace) return triangleBoxes[i];
+    return edgeBoxes[i];
+  };
+  const auto stale = [&](std::size_t i) {
+    const PairKind kind = pairs.kind[i];
+    bool changed = false;
+    for (Index particle : particlesOf(primitives, kind, true, pairs.first[i]))
+      changed |= grown[particle] != 0;
+    for (Index particle : particlesOf(primitives, kind, false, pairs.second[i]))
+      changed |= grown[particle] != 0;
+    return changed &&
+           !overlaps(boxOf(kind, true, pairs.first[i]), boxOf(kind, false, pairs.second[i]));
+  };
   std::size_t copied = 0;
+  pairs.formerIndex.clear();
   const auto copyUpTo = [&](std::size_t end) {
-    bvh.mergedKind.insert(bvh.mergedKind.end(), pairs.kind.begin() + copied,
-                          pairs.kind.begin() + end);
-    bvh.mergedFirst.insert(bvh.mergedFirst.end(), pairs.first.begin() + copied,
-                           pairs.first.begin() + end);
-    bvh.mergedSecond.insert(bvh.mergedSecond.end(), pairs.second.begin() + copied,
-                            pairs.second.begin() + end);
+    for (std::size_t i = copied; i < end; ++i) {
+      if (stale(i)) continue;
+      pairs.formerIndex.push_back(static_cast<Index>(i));
+      bvh.mergedKind.push_back(pairs.kind[i]);
+      bvh.mergedFirst.push_back(pairs.first[i]);
+      bvh.mergedSecond.push_back(pairs.second[i]);
+    }
     copied = end;
   };
   for (std::size_t kind = 0; kind < 4; ++kind)
@@ -539,7 +562,8 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
           high = middle;
       }
       copyUpTo(low);
-      if (low < pairs.size() && keyOf(low) == pair) continue;  // already a pair
+      if (low < pairs.size() && keyOf(low) == pair) continue;  // already a pair, kept
+      pairs.formerIndex.push_back(CandidatePairs::kNewPair);
       bvh.mergedKind.push_back(std::get<0>(pair));
       bvh.mergedFirst.push_back(std::get<1>(pair));
       bvh.mergedSecond.push_back(std::get<2>(pair));

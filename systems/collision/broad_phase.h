@@ -98,15 +98,14 @@ Real boundSlack(const CollisionPrimitives& primitives, Real margin);
 void growParticleBounds(CandidatePairs& pairs, Real slack);
 
 // Makes the pairs complete again where some particles left their bounds, without finding them
-// all again (the incremental re-detection of I-Cloth, Tang et al. 2018): the motion box of each
-// particle whose `position` is outside its bounds grows to take in its motion from `start` to
-// `end`, and so do its bounds; the primitives with such a particle get their boxes again, the
-// trees are refit, those primitives are queried, and the pairs they make that are not yet in the
-// set are merged into it in order. Every other primitive keeps its box, and every pair of
-// primitives whose boxes now overlap is in the set, as after findCandidatePairs over the motion
-// boxes (the set may hold more: pairs of boxes that overlapped before). Returns false, changing
-// nothing, when more than 1/kExtendShare of the particles left their bounds, or the trees were
-// not built for the current primitives: a full findCandidatePairs is then the cheaper call.
+// all again (the incremental re-detection of I-Cloth, Tang et al. 2018): each particle whose
+// `position` is outside its bounds gets the motion box of `start` to `end` and bounds from it;
+// the primitives with such a particle get their boxes again, the trees are refit, those
+// primitives are queried, their new pairs are merged into the set in order and their pairs whose
+// boxes came apart are dropped. The set is then the one findCandidatePairs would give over the
+// motion boxes, and CandidatePairs::formerIndex says where each pair was before. Returns false,
+// changing nothing, when more than 1/kExtendShare of the particles left their bounds, or the
+// trees were not built for the current primitives: a full findCandidatePairs is then cheaper.
 constexpr std::size_t kExtendShare = 8;
 bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                           const CollisionPrimitives& primitives, std::span<const Vec3> position,

@@ -463,12 +463,20 @@ void applyPrimitiveFriction(PrimitiveContactPool& contacts, ParticlePool& partic
 void measureStartDistances(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
                            const CollisionPrimitives& primitives, const ParticlePool& particles) {
   const std::size_t n = candidates.size();
+  // After an incremental re-detection the pairs that were already in the set keep the distance
+  // the narrow phase measured for them at the same start positions.
+  const bool carry = candidates.formerIndex.size() == n;
+  if (carry) contacts.startDistance.swap(contacts.formerStartDistance);
   contacts.startDistance.resize(n);
   contacts.suspect.resize(n);
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, n, kPairGrain),
       [&](const tbb::blocked_range<std::size_t>& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          if (carry && candidates.formerIndex[i] != CandidatePairs::kNewPair) {
+            contacts.startDistance[i] = contacts.formerStartDistance[candidates.formerIndex[i]];
+            continue;
+          }
           const PairView v =
               viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
           Vec3d X0[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};

@@ -66,6 +66,8 @@ struct CrossingReport {
 // The distance of every candidate pair at the start of the substep (particles.x) into
 // contacts.startDistance, for the fail-safe: after the candidates were found again for the
 // solve's actual motion (the ones detectPrimitiveContacts measured belong to the earlier set).
+// After an incremental re-detection (CandidatePairs::formerIndex) only the new pairs are measured;
+// the others keep theirs.
 void measureStartDistances(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
                            const CollisionPrimitives& primitives, const ParticlePool& particles);
 
