@@ -97,6 +97,7 @@ class PrimitiveBvh {
   std::vector<std::uint8_t> grownParticle;
   std::array<std::vector<Index>, 3> changedPrimitives;
   std::array<std::vector<std::uint64_t>, 4> newPairs;
+  std::vector<std::uint8_t> stalePair;  // per pair of the set: its boxes came apart
   std::vector<PairKind> mergedKind;
   std::vector<Index> mergedFirst;
   std::vector<Index> mergedSecond;

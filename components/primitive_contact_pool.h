@@ -55,8 +55,9 @@ struct PrimitiveContactPool {
   // incidence[incidenceOffset[i] .. incidenceOffset[i+1]) as (contact << 2 | slot).
   std::vector<Index> incidenceOffset;
   std::vector<Index> incidence;
-  std::vector<Index> touched;          // particles with at least one contact, ascending
-  std::vector<Index> incidenceCursor;  // scratch of the incidence's parallel build
+  std::vector<Real> incidenceCoefficient;  // c_k of each incidence entry, beside it
+  std::vector<Index> touched;              // particles with at least one contact, ascending
+  std::vector<Index> incidenceCursor;      // scratch of the incidence's parallel build
 
   // Friction scratch of the parallel backends: the tangential correction of each contact.
   std::vector<Vec3> tangentStep;

@@ -536,11 +536,17 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     return changed &&
            !overlaps(boxOf(kind, true, pairs.first[i]), boxOf(kind, false, pairs.second[i]));
   };
+  bvh.stalePair.resize(pairs.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.size(), kPairGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i)
+                        bvh.stalePair[i] = stale(i) ? 1 : 0;
+                    });
   std::size_t copied = 0;
   pairs.formerIndex.clear();
   const auto copyUpTo = [&](std::size_t end) {
     for (std::size_t i = copied; i < end; ++i) {
-      if (stale(i)) continue;
+      if (bvh.stalePair[i]) continue;
       pairs.formerIndex.push_back(static_cast<Index>(i));
       bvh.mergedKind.push_back(pairs.kind[i]);
       bvh.mergedFirst.push_back(pairs.first[i]);

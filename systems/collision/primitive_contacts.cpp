@@ -123,16 +123,18 @@ CcdResult pairCcd(PairKind kind, const Vec3d* X0, const Vec3d* X1, double distan
 // particles), and the distance, 1-Lipschitz in each point, shrinks by at most the two summed.
 // Relative: a cloth falling as a whole has neighbours whose bound is near zero.
 double motionBound(const PairView& v, const Vec3d* X0, const Vec3d* X1) {
+  // The largest squared length per side, then one root each: the same value as the largest
+  // length (the root is monotone and correctly rounded), with fewer roots.
   const Vec3d u0 = X1[0] - X0[0];
   double a = 0, b = 0;
   for (int k = 1; k < v.count; ++k) {
-    const double d = (X1[k] - X0[k] - u0).norm();
+    const double d = (X1[k] - X0[k] - u0).squaredNorm();
     if (k < v.firstSide)
       a = std::max(a, d);
     else
       b = std::max(b, d);
   }
-  return a + b;
+  return std::sqrt(a) + std::sqrt(b);
 }
 
 // A lower bound on the distance between the two primitives at X: the gap between the boxes of
@@ -286,10 +288,9 @@ void gatherCorrections(const PrimitiveContactPool& pool, ParticlePool& particles
                         int active = 0;
                         for (Index e = pool.incidenceOffset[i]; e < pool.incidenceOffset[i + 1];
                              ++e) {
-                          const Index c = pool.incidence[e] >> 2, k = pool.incidence[e] & 3;
-                          const Vec3 delta = correction(c);
+                          const Vec3 delta = correction(pool.incidence[e] >> 2);
                           if (delta.isZero(0)) continue;
-                          sum += pool.coefficient[c][k] * delta;
+                          sum += pool.incidenceCoefficient[e] * delta;
                           ++active;
                         }
                         if (active > 0) particles.p[i] += particles.w[i] * sum / Real(active);
@@ -345,6 +346,7 @@ void buildIncidence(PrimitiveContactPool& pool, std::size_t particleCount) {
                       }
                     });
   pool.incidence.resize(total.entries);
+  pool.incidenceCoefficient.resize(total.entries);
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, n, kPairGrain),
       [&](const tbb::blocked_range<std::size_t>& r) {
@@ -362,6 +364,10 @@ void buildIncidence(PrimitiveContactPool& pool, std::size_t particleCount) {
                         const Index i = pool.touched[t];
                         std::sort(pool.incidence.begin() + pool.incidenceOffset[i],
                                   pool.incidence.begin() + pool.incidenceOffset[i + 1]);
+                        for (Index e = pool.incidenceOffset[i]; e < pool.incidenceOffset[i + 1];
+                             ++e)
+                          pool.incidenceCoefficient[e] =
+                              pool.coefficient[pool.incidence[e] >> 2][pool.incidence[e] & 3];
                       }
                     });
 }
@@ -434,8 +440,11 @@ void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& part
                         contacts.lambda[c] += contacts.step[c] * contacts.inverseMass[c];
                       }
                     });
-  gatherCorrections(contacts, particles,
-                    [&](Index c) -> Vec3 { return contacts.step[c] * contacts.normal[c]; });
+  // Most contacts are not pressed in a given round: their normal is not even loaded.
+  gatherCorrections(contacts, particles, [&](Index c) -> Vec3 {
+    const Real step = contacts.step[c];
+    return step == 0 ? Vec3::Zero() : Vec3(step * contacts.normal[c]);
+  });
 }
 
 void applyPrimitiveFriction(PrimitiveContactPool& contacts, ParticlePool& particles,
