@@ -38,7 +38,7 @@ TEST_P(EveryBundledScene, RunsWithoutRepairsOrNonFiniteValues) {
   // The sanitizer build looks for memory and undefined-behaviour errors, which the first frames
   // (contacts made, colliders reached) exercise; the Release and double builds run every frame.
   // cloth_drop_sphere's 128² sheet reaches the sphere at frame 19, and each frame after that costs
-  // about five times one before it (700 against 130 ms in Release): 20 frames take it through the
+  // about five times one before it (640 against 90 ms in Release): 20 frames take it through the
   // first contacts, and the same mesh-collider code runs on for 30 frames in kinematic_spin.
   args.insert(args.end(), {"--frames", GetParam() == "cloth_drop_sphere" ? "20" : "30"});
 #endif
