@@ -89,8 +89,8 @@ class PrimitiveBvh {
   std::vector<Index> isolatedPoints;  // the point of each primitive of the IsolatedPoints tree
   std::vector<Index> pairOffset;      // per query primitive: where its partners start
   std::vector<Index> pairCursor;      // per query primitive: the next free place of its partners
-  // Pairs found by each thread of the arena (by its index in it), as first << 32 | second,
-  // before they are put in order.
+  // Pairs found by each thread of the arena (by its index in it), and last a list shared by
+  // threads outside the arena, as first << 32 | second, before they are put in order.
   std::vector<std::vector<std::uint64_t>> threadPairs;
   // Incremental re-detection: which particles grew their motion box, the primitives with one
   // (points, edges, triangles), the new pairs of each kind, and the merged pair lists.

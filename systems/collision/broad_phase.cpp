@@ -6,6 +6,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <mutex>
 #include <tuple>
 #include <vector>
 
@@ -58,12 +59,39 @@ std::size_t computeBoxes(std::vector<PrimitiveBox>& boxes, std::size_t count,
       std::plus<>());
 }
 
+// Pair lists per thread: one for each thread of the arena (by its index in it), and a last one,
+// shared under a lock, for a thread outside the arena (an Embree built with its own tasking
+// system runs its traversal on threads of its own).
+struct ThreadPairs {
+  std::vector<std::vector<std::uint64_t>>* lists;
+  std::mutex* overflowLock;
+
+  void append(const std::uint64_t* keys, std::size_t count) const {
+    if (count == 0) return;
+    const int slot = tbb::this_task_arena::current_thread_index();
+    if (slot >= 0 && static_cast<std::size_t>(slot) + 1 < lists->size()) {
+      (*lists)[static_cast<std::size_t>(slot)].insert(
+          (*lists)[static_cast<std::size_t>(slot)].end(), keys, keys + count);
+      return;
+    }
+    const std::lock_guard<std::mutex> lock(*overflowLock);
+    lists->back().insert(lists->back().end(), keys, keys + count);
+  }
+};
+
+// Sized for the current arena's threads plus the shared list, emptied.
+void prepareThreadPairs(std::vector<std::vector<std::uint64_t>>& lists) {
+  lists.resize(std::max<std::size_t>(
+      lists.size(), static_cast<std::size_t>(tbb::this_task_arena::max_concurrency()) + 1));
+  for (std::vector<std::uint64_t>& list : lists) list.clear();
+}
+
 // What the pair callbacks need to filter a pair and keep it.
 struct PairFilter {
   const CollisionPrimitives* primitives;
   const Real* w;
   const Index* isolatedPoints;  // tree primitive → point, for the IsolatedPoints tree
-  std::vector<std::vector<std::uint64_t>>* found;  // one list per thread of the arena
+  ThreadPairs found;
 };
 
 // Whether two primitives whose boxes overlap are a pair: they share no particle, one of them can
@@ -87,10 +115,10 @@ template <PairKind kKind>
 void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
   const PairFilter& f = *static_cast<const PairFilter*>(raw);
   const CollisionPrimitives& prims = *f.primitives;
-  // Embree's traversal runs as tasks of the caller's arena, whose threads have indices below its
-  // concurrency, for which the lists were made.
-  std::vector<std::uint64_t>& found =
-      (*f.found)[static_cast<std::size_t>(tbb::this_task_arena::current_thread_index())];
+  // Embree reports at most a few hundred pairs per call: kept here, then appended at once.
+  constexpr std::size_t kBatch = 256;
+  std::uint64_t kept[kBatch];
+  std::size_t keptCount = 0;
   for (std::size_t k = 0; k < count; ++k) {
     Index first = a[k], second = b[k];
     std::span<const Index> particlesA, particlesB;
@@ -116,8 +144,10 @@ void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
       objectA = prims.pointObject[first], objectB = prims.pointObject[second];
     }
     if (!admissible(prims, f.w, particlesA, objectA, particlesB, objectB)) continue;
-    found.push_back(std::uint64_t{first} << 32 | second);
+    kept[keptCount++] = std::uint64_t{first} << 32 | second;
+    if (keptCount == kBatch) f.found.append(kept, keptCount), keptCount = 0;
   }
+  f.found.append(kept, keptCount);
 }
 
 // Appends the pairs the threads found, of one kind whose first index is below `firsts`, to `out`
@@ -233,10 +263,10 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
   // Pairs, kind by kind, each found by one dual-tree traversal and then put in order.
   start = Clock::now();
   out.clear();
-  bvh.threadPairs.resize(
-      std::max<std::size_t>(bvh.threadPairs.size(), tbb::this_task_arena::max_concurrency()));
-  for (std::vector<std::uint64_t>& found : bvh.threadPairs) found.clear();
-  PairFilter filter{&primitives, w.data(), bvh.isolatedPoints.data(), &bvh.threadPairs};
+  prepareThreadPairs(bvh.threadPairs);
+  std::mutex overflowLock;
+  PairFilter filter{&primitives, w.data(), bvh.isolatedPoints.data(),
+                    ThreadPairs{&bvh.threadPairs, &overflowLock}};
   struct Traversal {
     PairKind kind;
     BvhTree a, b;
@@ -331,7 +361,9 @@ struct ExtensionQuery {
   const CollisionPrimitives* primitives;
   const Real* w;
   const Index* isolatedPoints;
-  std::vector<std::uint64_t>* found;
+  ThreadPairs found;
+  std::array<std::uint64_t, 256> kept;  // pairs kept, appended to `found` when full and at the end
+  std::size_t keptCount;
   PairKind kind;
   Index self;
   bool selfFirst;        // the query primitive is the pair's first
@@ -354,7 +386,7 @@ std::uint32_t objectOf(const CollisionPrimitives& prims, PairKind kind, bool fir
 }
 
 void keepExtension(void* raw, Index partner) {
-  const ExtensionQuery& q = *static_cast<const ExtensionQuery*>(raw);
+  ExtensionQuery& q = *static_cast<ExtensionQuery*>(raw);
   if (q.partnerIsolated) partner = q.isolatedPoints[partner];
   Index first = q.selfFirst ? q.self : partner, second = q.selfFirst ? partner : q.self;
   if (q.kind == PairKind::EdgeEdge || q.kind == PairKind::VertexVertex) {
@@ -366,7 +398,8 @@ void keepExtension(void* raw, Index partner) {
                   objectOf(prims, q.kind, true, first), particlesOf(prims, q.kind, false, second),
                   objectOf(prims, q.kind, false, second)))
     return;
-  q.found->push_back(std::uint64_t{first} << 32 | second);
+  q.kept[q.keptCount++] = std::uint64_t{first} << 32 | second;
+  if (q.keptCount == q.kept.size()) q.found.append(q.kept.data(), q.keptCount), q.keptCount = 0;
 }
 
 }  // namespace
@@ -457,22 +490,20 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
       {PairKind::VertexEdge, &changedEdges, false, BvhTree::IsolatedPoints, false},
       {PairKind::VertexVertex, &changedPoints, true, BvhTree::IsolatedPoints, true},
   }};
-  bvh.threadPairs.resize(
-      std::max<std::size_t>(bvh.threadPairs.size(), tbb::this_task_arena::max_concurrency()));
   for (auto& list : bvh.newPairs) list.clear();
+  std::mutex overflowLock;
   for (const Search& search : searches) {
     if (bvh.builtCount(search.tree) == 0) continue;
-    for (std::vector<std::uint64_t>& found : bvh.threadPairs) found.clear();
+    prepareThreadPairs(bvh.threadPairs);
     const std::vector<Index>& queries = *search.queries;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), 64),
                       [&](const tbb::blocked_range<std::size_t>& r) {
-                        std::vector<std::uint64_t>& found =
-                            bvh.threadPairs[static_cast<std::size_t>(
-                                tbb::this_task_arena::current_thread_index())];
                         ExtensionQuery query{&primitives,
                                              w.data(),
                                              bvh.isolatedPoints.data(),
-                                             &found,
+                                             ThreadPairs{&bvh.threadPairs, &overflowLock},
+                                             {},
+                                             0,
                                              search.kind,
                                              0,
                                              search.selfFirst,
@@ -499,6 +530,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                           query.self = self;
                           bvh.forEachOverlap(search.tree, *box, &keepExtension, &query);
                         }
+                        query.found.append(query.kept.data(), query.keptCount);
                       });
     std::vector<std::uint64_t>& kindPairs = bvh.newPairs[static_cast<std::size_t>(search.kind)];
     for (const std::vector<std::uint64_t>& found : bvh.threadPairs)
