@@ -60,6 +60,9 @@ class PrimitiveBvh {
   // The boxes each tree bounds, by tree (index with the BvhTree value); primitive i of a tree is
   // boxes[tree][i]. Written by the broad phase, then commit().
   std::array<std::vector<PrimitiveBox>, kBvhTreeCount> boxes;
+  std::vector<PrimitiveBox>& treeBoxes(BvhTree tree) {
+    return boxes[static_cast<std::size_t>(tree)];
+  }
 
   // Makes every tree bound its current boxes: built from scratch where the number of boxes
   // differs from the one the tree was built for, refit otherwise. Returns whether any tree was

@@ -94,10 +94,28 @@ struct PairFilter {
   ThreadPairs found;
 };
 
-// Whether two primitives whose boxes overlap are a pair: they share no particle, one of them can
-// move, and their objects collide.
-bool admissible(const CollisionPrimitives& prims, const Real* w, std::span<const Index> particlesA,
-                std::uint32_t objectA, std::span<const Index> particlesB, std::uint32_t objectB) {
+std::span<const Index> particlesOf(const CollisionPrimitives& prims, PairKind kind, bool first,
+                                   Index i) {
+  const bool point = first ? kind != PairKind::EdgeEdge : kind == PairKind::VertexVertex;
+  if (point) return {&prims.pointParticle[i], 1};
+  if (!first && kind == PairKind::VertexFace) return prims.triangleParticles[i];
+  return prims.edgeParticles[i];
+}
+
+std::uint32_t objectOf(const CollisionPrimitives& prims, PairKind kind, bool first, Index i) {
+  const bool point = first ? kind != PairKind::EdgeEdge : kind == PairKind::VertexVertex;
+  if (point) return prims.pointObject[i];
+  if (!first && kind == PairKind::VertexFace) return prims.triangleObject[i];
+  return prims.edgeObject[i];
+}
+
+// Whether two primitives whose boxes overlap, the pair (first, second) of `kind` in the indices of
+// components/candidate_pairs.h, are a pair: they share no particle, one of them can move, and
+// their objects collide.
+bool admissible(const CollisionPrimitives& prims, const Real* w, PairKind kind, Index first,
+                Index second) {
+  const std::span<const Index> particlesA = particlesOf(prims, kind, true, first),
+                               particlesB = particlesOf(prims, kind, false, second);
   bool shared = false, free = false;
   for (Index i : particlesA) {
     for (Index j : particlesB) shared |= i == j;
@@ -106,7 +124,8 @@ bool admissible(const CollisionPrimitives& prims, const Real* w, std::span<const
   if (shared) return false;
   for (Index j : particlesB) free |= w[j] != 0;
   if (!free) return false;
-  return prims.excludedPairs.empty() || !prims.excluded(objectA, objectB);
+  return prims.excludedPairs.empty() ||
+         !prims.excluded(objectOf(prims, kind, true, first), objectOf(prims, kind, false, second));
 }
 
 // The filters every pair of overlapping boxes goes through, in the order of their cost; a pair
@@ -121,29 +140,11 @@ void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
   std::size_t keptCount = 0;
   for (std::size_t k = 0; k < count; ++k) {
     Index first = a[k], second = b[k];
-    std::span<const Index> particlesA, particlesB;
-    std::uint32_t objectA, objectB;
-    if constexpr (kKind == PairKind::VertexFace) {
-      particlesA = {&prims.pointParticle[first], 1};
-      particlesB = prims.triangleParticles[second];
-      objectA = prims.pointObject[first], objectB = prims.triangleObject[second];
-    } else if constexpr (kKind == PairKind::EdgeEdge) {
-      particlesA = prims.edgeParticles[first];
-      particlesB = prims.edgeParticles[second];
-      objectA = prims.edgeObject[first], objectB = prims.edgeObject[second];
-    } else if constexpr (kKind == PairKind::VertexEdge) {
+    // The IsolatedPoints tree's primitives map to points; they ascend, so first < second holds.
+    if constexpr (kKind == PairKind::VertexEdge || kKind == PairKind::VertexVertex)
       first = f.isolatedPoints[first];
-      particlesA = {&prims.pointParticle[first], 1};
-      particlesB = prims.edgeParticles[second];
-      objectA = prims.pointObject[first], objectB = prims.edgeObject[second];
-    } else {
-      // The tree's points ascend, so first < second still holds.
-      first = f.isolatedPoints[first], second = f.isolatedPoints[second];
-      particlesA = {&prims.pointParticle[first], 1};
-      particlesB = {&prims.pointParticle[second], 1};
-      objectA = prims.pointObject[first], objectB = prims.pointObject[second];
-    }
-    if (!admissible(prims, f.w, particlesA, objectA, particlesB, objectB)) continue;
+    if constexpr (kKind == PairKind::VertexVertex) second = f.isolatedPoints[second];
+    if (!admissible(prims, f.w, kKind, first, second)) continue;
     kept[keptCount++] = std::uint64_t{first} << 32 | second;
     if (keptCount == kBatch) f.found.append(kept, keptCount), keptCount = 0;
   }
@@ -231,10 +232,10 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
   BroadPhaseStats stats;
   const std::size_t points = primitives.points(), edges = primitives.edges(),
                     triangles = primitives.triangles();
-  auto& triangleBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::Triangles)];
-  auto& edgeBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::Edges)];
-  auto& isolatedBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::IsolatedPoints)];
-  auto& pointBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::Points)];
+  auto& triangleBoxes = bvh.treeBoxes(BvhTree::Triangles);
+  auto& edgeBoxes = bvh.treeBoxes(BvhTree::Edges);
+  auto& isolatedBoxes = bvh.treeBoxes(BvhTree::IsolatedPoints);
+  auto& pointBoxes = bvh.treeBoxes(BvhTree::Points);
 
   // Boxes.
   Clock::time_point start = Clock::now();
@@ -370,21 +371,6 @@ struct ExtensionQuery {
   bool partnerIsolated;  // the tree is IsolatedPoints: its primitives map to points
 };
 
-std::span<const Index> particlesOf(const CollisionPrimitives& prims, PairKind kind, bool first,
-                                   Index i) {
-  const bool point = first ? kind != PairKind::EdgeEdge : kind == PairKind::VertexVertex;
-  if (point) return {&prims.pointParticle[i], 1};
-  if (!first && kind == PairKind::VertexFace) return prims.triangleParticles[i];
-  return prims.edgeParticles[i];
-}
-
-std::uint32_t objectOf(const CollisionPrimitives& prims, PairKind kind, bool first, Index i) {
-  const bool point = first ? kind != PairKind::EdgeEdge : kind == PairKind::VertexVertex;
-  if (point) return prims.pointObject[i];
-  if (!first && kind == PairKind::VertexFace) return prims.triangleObject[i];
-  return prims.edgeObject[i];
-}
-
 void keepExtension(void* raw, Index partner) {
   ExtensionQuery& q = *static_cast<ExtensionQuery*>(raw);
   if (q.partnerIsolated) partner = q.isolatedPoints[partner];
@@ -393,11 +379,7 @@ void keepExtension(void* raw, Index partner) {
     if (first == second) return;
     if (first > second) std::swap(first, second);
   }
-  const CollisionPrimitives& prims = *q.primitives;
-  if (!admissible(prims, q.w, particlesOf(prims, q.kind, true, first),
-                  objectOf(prims, q.kind, true, first), particlesOf(prims, q.kind, false, second),
-                  objectOf(prims, q.kind, false, second)))
-    return;
+  if (!admissible(*q.primitives, q.w, q.kind, first, second)) return;
   q.kept[q.keptCount++] = std::uint64_t{first} << 32 | second;
   if (q.keptCount == q.kept.size()) q.found.append(q.kept.data(), q.keptCount), q.keptCount = 0;
 }
@@ -411,10 +393,10 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   const std::size_t n = position.size();
   const std::size_t points = primitives.points(), edges = primitives.edges(),
                     triangles = primitives.triangles();
-  auto& triangleBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::Triangles)];
-  auto& edgeBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::Edges)];
-  auto& isolatedBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::IsolatedPoints)];
-  auto& pointBoxes = bvh.boxes[static_cast<std::size_t>(BvhTree::Points)];
+  auto& triangleBoxes = bvh.treeBoxes(BvhTree::Triangles);
+  auto& edgeBoxes = bvh.treeBoxes(BvhTree::Edges);
+  auto& isolatedBoxes = bvh.treeBoxes(BvhTree::IsolatedPoints);
+  auto& pointBoxes = bvh.treeBoxes(BvhTree::Points);
   // The trees and motion boxes of the last findCandidatePairs must still fit the primitives.
   if (pairs.boundLower.size() != n || pairs.motionLower.size() != n ||
       triangleBoxes.size() != triangles || edgeBoxes.size() != edges ||
@@ -632,8 +614,8 @@ BroadPhaseStats findCandidatePairsBruteForce(CandidatePairs& out,
   for (const auto* boxes : {&pointBoxes, &edgeBoxes, &triangleBoxes})
     for (const PrimitiveBox& box : *boxes) stats.skippedPrimitives += box.isEmpty();
 
-  auto admissible = [&](std::span<const Index> a, std::uint32_t objectA, std::span<const Index> b,
-                        std::uint32_t objectB) {
+  auto allowed = [&](std::span<const Index> a, std::uint32_t objectA, std::span<const Index> b,
+                     std::uint32_t objectB) {
     bool free = false;
     for (Index i : a) {
       for (Index j : b)
@@ -651,29 +633,29 @@ BroadPhaseStats findCandidatePairsBruteForce(CandidatePairs& out,
   for (std::size_t i = 0; i < primitives.points(); ++i)
     for (std::size_t t = 0; t < primitives.triangles(); ++t)
       if (overlaps(pointBoxes[i], triangleBoxes[t]) &&
-          admissible(pointParticles(primitives, i), primitives.pointObject[i],
-                     triangleParticles(primitives, t), primitives.triangleObject[t]))
+          allowed(pointParticles(primitives, i), primitives.pointObject[i],
+                  triangleParticles(primitives, t), primitives.triangleObject[t]))
         add(PairKind::VertexFace, i, t);
   for (std::size_t a = 0; a < primitives.edges(); ++a)
     for (std::size_t b = a + 1; b < primitives.edges(); ++b)
       if (overlaps(edgeBoxes[a], edgeBoxes[b]) &&
-          admissible(edgeParticles(primitives, a), primitives.edgeObject[a],
-                     edgeParticles(primitives, b), primitives.edgeObject[b]))
+          allowed(edgeParticles(primitives, a), primitives.edgeObject[a],
+                  edgeParticles(primitives, b), primitives.edgeObject[b]))
         add(PairKind::EdgeEdge, a, b);
   for (std::size_t i = 0; i < primitives.points(); ++i) {
     if (!primitives.pointIsolated[i]) continue;
     for (std::size_t e = 0; e < primitives.edges(); ++e)
       if (overlaps(pointBoxes[i], edgeBoxes[e]) &&
-          admissible(pointParticles(primitives, i), primitives.pointObject[i],
-                     edgeParticles(primitives, e), primitives.edgeObject[e]))
+          allowed(pointParticles(primitives, i), primitives.pointObject[i],
+                  edgeParticles(primitives, e), primitives.edgeObject[e]))
         add(PairKind::VertexEdge, i, e);
   }
   for (std::size_t i = 0; i < primitives.points(); ++i) {
     if (!primitives.pointIsolated[i]) continue;
     for (std::size_t j = i + 1; j < primitives.points(); ++j)
       if (primitives.pointIsolated[j] && overlaps(pointBoxes[i], pointBoxes[j]) &&
-          admissible(pointParticles(primitives, i), primitives.pointObject[i],
-                     pointParticles(primitives, j), primitives.pointObject[j]))
+          allowed(pointParticles(primitives, i), primitives.pointObject[i],
+                  pointParticles(primitives, j), primitives.pointObject[j]))
         add(PairKind::VertexVertex, i, j);
   }
   return stats;
