@@ -205,6 +205,13 @@ TEST(DistanceBatch, PiecesOfAColorAreAlignedForAnyThreadCount) {
 // and two threads, with the batched path in use. (With batches not aligned to the color start,
 // this cloth's state differed between one and two threads by step 100.)
 TEST(DistanceBatch, ColoredClothIsTheSameForOneAndTwoThreads) {
+#if defined(__SANITIZE_ADDRESS__)
+  // Determinism is a property of the arithmetic, which the Release and double builds check on
+  // this 256² cloth. The sanitizer build runs the batched sweeps in this file's comparisons with
+  // the scalar kernel and in every colored cloth test; two more 256² runs (30 s there) add
+  // nothing it could find.
+  GTEST_SKIP() << "thread-count determinism is checked in the Release and double builds";
+#endif
   std::uint64_t hashes[2] = {0, 0};
   for (int threads : {1, 2}) {
     GridSpec spec;

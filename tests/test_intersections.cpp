@@ -321,6 +321,21 @@ TEST(CountTriangleIntersections, BroadPhaseLosesNoPair) {
   }
 }
 
+// Two clusters of the random soup a million metres apart (small triangles, so cell keys need
+// more bits than they keep and wrap around), one of them below the origin: the count is still
+// the brute force's.
+TEST(CountTriangleIntersections, FarApartClustersLoseNoPair) {
+  Soup s = randomSoup(5, 600);
+  const Soup far = randomSoup(6, 600);
+  const Index base = static_cast<Index>(s.x.size());
+  for (const Vec3& x : far.x) s.x.push_back(x + Vec3(-1e6f, 2.5e5f, -7e5f));
+  for (const Tri& t : far.triangles) s.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+  const std::size_t expected = bruteForceCount(s.triangles, s.x);
+  EXPECT_GT(expected, 50u);
+  EXPECT_EQ(countWithThreads(1, s.triangles, s.x), expected);
+  EXPECT_EQ(countWithThreads(2, s.triangles, s.x), expected);
+}
+
 TEST(CountTriangleIntersections, LargeAndTinyTrianglesTogether) {
   // One large triangle under a field of small ones, some touching it, some crossing, some
   // clear: the large one lives many levels above the others.

@@ -80,6 +80,11 @@ TEST(Incidence, ListsEverySlotOnceInIncreasingOrder) {
 class Determinism : public ::testing::TestWithParam<SolverKind> {};
 
 TEST_P(Determinism, ClothHangStateHashIsTheSameForOneAndTwoThreads) {
+#if defined(__SANITIZE_ADDRESS__)
+  // Determinism is a property of the arithmetic, which the Release and double builds check; the
+  // sanitizer build runs every backend on hanging cloth in the tests around this one.
+  GTEST_SKIP() << "thread-count determinism is checked in the Release and double builds";
+#endif
   auto run = [&](int threads) {
     World world = test::hangingCloth(64, 10, 1, threads);
     world.setSolver(test::solverSettings(GetParam(), 10, 1));
