@@ -42,14 +42,21 @@ struct CandidatePairs {
   std::vector<Vec3> boundUpper;
   // Scratch: the end of each particle's extrapolated motion (predictMotionEnd).
   std::vector<Vec3> motionEnd;
-  // Right after an incremental re-detection (extendCandidatePairs): each pair's index in the set
-  // before it, or kNewPair for a pair it added, so that per-pair data can follow the pairs.
-  // Empty after a full broad phase.
+  // Which set this is: every change of the pairs (a broad phase, full or incremental) counts one
+  // up, so that per-pair data kept elsewhere can tell whether it still belongs to them.
+  std::uint64_t version = 0;
+  // Each pair's index in the set before the last change (version − 1), or kNewPair for a pair
+  // that change added, so that per-pair data can follow the pairs; empty when the change kept
+  // no pair (a first broad phase, the brute force).
   static constexpr Index kNewPair = ~Index{0};
   std::vector<Index> formerIndex;
+  // Scratch of a full broad phase: the pairs before it, to match them with the new ones.
+  std::vector<PairKind> formerKind;
+  std::vector<Index> formerFirst;
+  std::vector<Index> formerSecond;
 
   std::size_t size() const { return kind.size(); }
-  void clear() { kind.clear(), first.clear(), second.clear(), formerIndex.clear(); }
+  void clear() { kind.clear(), first.clear(), second.clear(), formerIndex.clear(), ++version; }
   void push_back(PairKind k, Index a, Index b) {
     kind.push_back(k), first.push_back(a), second.push_back(b);
   }

@@ -75,6 +75,21 @@ struct PrimitiveContactPool {
   // re-tests only the pairs the one before changed.
   std::vector<int> failsafeRound;
 
+  // What the narrow phase learned of each pair, kept from substep to substep so that a pair far
+  // from contact is not measured again (primitive_contacts.h, "Lower bounds"):
+  // per candidate pair, a lower bound on its distance over the motion from the start of the
+  // substep to `predicted` (−∞ where none is known), valid for candidate set `boundVersion`;
+  std::vector<double> lowerBound;
+  std::vector<double> formerLowerBound;  // scratch: the bounds before the set changed
+  std::uint64_t boundVersion = 0;        // CandidatePairs::version; 0: none
+  // per particle, the predicted position the bounds were taken over, and scratch: how far each
+  // particle strays from it and moves apart from the mean motion.
+  std::vector<Vec3> predicted;
+  std::vector<double> deviation;
+  std::vector<double> relativeMotion;
+  std::vector<Vec3d> chunkMotion;        // scratch: the motions summed per fixed chunk
+  std::vector<std::size_t> chunkMovers;  // … and how many particles each sum has
+
   std::size_t size() const { return particles.size(); }
   void store(std::size_t slot, const PrimitiveContactRecord& c) {
     particles[slot] = c.particles, coefficient[slot] = c.coefficient, normal[slot] = c.normal;

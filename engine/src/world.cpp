@@ -490,6 +490,8 @@ void World::step(double dt) {
   if (s.topologyDirty) {  // derived tables, rebuilt outside the step so a step never allocates
     buildDerivedTables(s.constraints, s.particles, fineSweepKind(s.solver));
     buildCollisionPrimitives(s.primitives, s.objects, s.excludedObjectPairs);
+    // Pair indices name the new primitives: nothing the narrow phase kept of the old ones holds.
+    s.primitiveContacts.boundVersion = 0;
     if (s.solver.kind == SolverKind::Multigrid) {
       buildLevelHierarchies(s.hierarchies, s.objects, s.particles);
       attachLevelTethers(s.hierarchies, s.constraints.tether, s.particles.size());

@@ -196,6 +196,38 @@ std::size_t appendInOrder(CandidatePairs& out, PrimitiveBvh& bvh, PairKind kind,
   return added;
 }
 
+// formerIndex of a full broad phase: both sets are sorted by (kind, first, second), so each
+// chunk of the new pairs finds where it starts among the former ones by bisection and then
+// merges along them.
+void matchFormerPairs(CandidatePairs& pairs) {
+  const std::size_t n = pairs.size(), former = pairs.formerKind.size();
+  pairs.formerIndex.resize(n);
+  const auto formerKey = [&](std::size_t j) {
+    return std::tuple(pairs.formerKind[j], pairs.formerFirst[j], pairs.formerSecond[j]);
+  };
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      const auto first = std::tuple(pairs.kind[r.begin()], pairs.first[r.begin()],
+                                                    pairs.second[r.begin()]);
+                      std::size_t low = 0, high = former;
+                      while (low < high) {
+                        const std::size_t middle = low + (high - low) / 2;
+                        if (formerKey(middle) < first)
+                          low = middle + 1;
+                        else
+                          high = middle;
+                      }
+                      std::size_t j = low;
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        const auto key = std::tuple(pairs.kind[i], pairs.first[i], pairs.second[i]);
+                        while (j < former && formerKey(j) < key) ++j;
+                        pairs.formerIndex[i] = j < former && formerKey(j) == key
+                                                   ? static_cast<Index>(j)
+                                                   : CandidatePairs::kNewPair;
+                      }
+                    });
+}
+
 }  // namespace
 
 PrimitiveBox sweptBox(std::span<const Index> particles, std::span<const Vec3> x,
@@ -263,6 +295,9 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
 
   // Pairs, kind by kind, each found by one dual-tree traversal and then put in order.
   start = Clock::now();
+  out.formerKind.swap(out.kind);
+  out.formerFirst.swap(out.first);
+  out.formerSecond.swap(out.second);
   out.clear();
   prepareThreadPairs(bvh.threadPairs);
   std::mutex overflowLock;
@@ -286,6 +321,7 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
     const std::size_t firsts = t.kind == PairKind::EdgeEdge ? edges : points;
     stats.pairs[static_cast<std::size_t>(t.kind)] = appendInOrder(out, bvh, t.kind, firsts);
   }
+  matchFormerPairs(out);
   stats.querySeconds = secondsSince(start);
   return stats;
 }
@@ -592,6 +628,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   pairs.kind.swap(bvh.mergedKind);
   pairs.first.swap(bvh.mergedFirst);
   pairs.second.swap(bvh.mergedSecond);
+  ++pairs.version;
   return true;
 }
 

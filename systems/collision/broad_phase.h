@@ -61,9 +61,10 @@ struct BroadPhaseStats {
 PrimitiveBox sweptBox(std::span<const Index> particles, std::span<const Vec3> x,
                       std::span<const Vec3> p, Real inflation);
 
-// Refills `out` with the candidate pairs, sorted by (kind, first, second). `bvh` is the world's
-// broad phase state: reused between calls, it is refit while the primitive counts stay the same.
-// Once its scratch has grown, a call allocates nothing.
+// Refills `out` with the candidate pairs, sorted by (kind, first, second), and says through
+// out.formerIndex which of them were pairs before the call. `bvh` is the world's broad phase
+// state: reused between calls, it is refit while the primitive counts stay the same. Once its
+// scratch has grown, a call allocates nothing.
 BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
                                    const CollisionPrimitives& primitives, std::span<const Vec3> x,
                                    std::span<const Vec3> p, std::span<const Real> w, Real margin);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -22,6 +23,10 @@ constexpr std::size_t kContactChunk = 1024;
 // Rounds of the fail-safe before it gives up and reports the pairs left (each round stops at
 // least one more particle, so this bounds the work, not the outcome of realistic scenes).
 constexpr int kMaxFailsafeRounds = 64;
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+// Room (m) a carried lower bound must leave before a pair is passed over: far above the rounding
+// of the double arithmetic that carries it, far below any contact distance.
+constexpr double kBoundTolerance = 1e-7;
 
 // The particles of a candidate pair, the first primitive's first, with the primitives' radii
 // and objects.
@@ -152,7 +157,8 @@ double boxDistance(const PairView& v, const Vec3d* X) {
 
 // Makes the contact of candidate pair `v` if it may come within reach; false if it cannot.
 bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectSurface* surfaces,
-                 double& startDistance, PrimitiveContactRecord& out) {
+                 double& startDistance, double& lowerBound, PrimitiveContactRecord& out) {
+  lowerBound = -kInfinity;
   Vec3d X0[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
   Vec3d X1[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
   for (int k = 0; k < v.count; ++k) {
@@ -167,12 +173,15 @@ bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectS
   const double gapBound = boxDistance(v, X0);
   if (gapBound > 1e-9 && (gapBound - motion > reach || !std::isfinite(motion))) {
     startDistance = gapBound;
+    if (std::isfinite(motion)) lowerBound = gapBound - motion;
     return false;
   }
   const auto c0 = closestCoefficients(v.kind, X0);
   const Vec3d gap0 = combine(c0, X0, v.count);
   startDistance = gap0.norm();
-  if (!std::isfinite(startDistance) || startDistance - motion > reach) return false;
+  if (!std::isfinite(startDistance) || !std::isfinite(motion)) return false;
+  lowerBound = startDistance - motion;
+  if (lowerBound > reach) return false;
   if (v.objectA == v.objectB) {
     // Held apart by the mesh itself: no contact between primitives of one object that are closer
     // than their contact distance in the rest shape (they would push the mesh away from its rest
@@ -189,10 +198,11 @@ bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectS
   // smallest value over t is (d0 + d1 − L) / 2.
   const auto c1 = closestCoefficients(v.kind, X1);
   const double endDistance = combine(c1, X1, v.count).norm();
-  if ((startDistance + endDistance - motion) / 2 > reach) return false;
   // A non-finite prediction gets no contact, so that it cannot spread to the pair's other
   // particles; the update resets and counts it.
-  if (!std::isfinite(motion) || !std::isfinite(endDistance)) return false;
+  if (!std::isfinite(endDistance)) return false;
+  lowerBound = std::max(lowerBound, (startDistance + endDistance - motion) / 2);
+  if (lowerBound > reach) return false;
 
   // The configuration the contact is linearised at: where the pair first comes within its
   // contact distance if it does during the predicted motion, else the predicted end.
@@ -372,16 +382,92 @@ void buildIncidence(PrimitiveContactPool& pool, std::size_t particleCount) {
                     });
 }
 
+// The mean substep motion p − x of the free particles with a finite one, summed over fixed
+// chunks in order, so that it does not depend on the thread count.
+Vec3d meanMotion(const ParticlePool& particles, std::vector<Vec3d>& sums,
+                 std::vector<std::size_t>& counts) {
+  const std::size_t n = particles.size(), chunks = (n + kParticleGrain - 1) / kParticleGrain;
+  sums.assign(chunks, Vec3d::Zero());
+  counts.assign(chunks, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t chunk = r.begin(); chunk != r.end(); ++chunk)
+                        for (std::size_t i = chunk * kParticleGrain;
+                             i < std::min(n, (chunk + 1) * kParticleGrain); ++i) {
+                          const Vec3d u = (particles.p[i] - particles.x[i]).cast<double>();
+                          if (particles.w[i] == 0 || !u.allFinite()) continue;
+                          sums[chunk] += u;
+                          ++counts[chunk];
+                        }
+                    });
+  Vec3d sum = Vec3d::Zero();
+  std::size_t count = 0;
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk) sum += sums[chunk], count += counts[chunk];
+  return count > 0 ? Vec3d(sum / double(count)) : Vec3d::Zero();
+}
+
+// The largest of `values` over each side of pair `v`.
+std::array<double, 2> sideMaxima(const PairView& v, const std::vector<double>& values) {
+  std::array<double, 2> most = {0, 0};
+  for (int k = 0; k < v.count; ++k) {
+    double& side = most[k < v.firstSide ? 0 : 1];
+    // Written so that a NaN wins: a pair with a non-finite value is never passed over.
+    if (!(values[v.id[k]] <= side)) side = values[v.id[k]];
+  }
+  return most;
+}
+
 }  // namespace
 
 void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
                              const CollisionPrimitives& primitives, const ParticlePool& particles) {
   const ObjectSurface* surfaces = primitives.objectSurface.data();
-  const std::size_t n = candidates.size();
+  const std::size_t n = candidates.size(), particleCount = particles.size();
   contacts.startDistance.resize(n);
   contacts.suspect.resize(n);
+  // The lower bounds of the last substep, in the order of the current pairs: kept if the pairs
+  // are the same, followed through formerIndex if they changed once since.
+  const bool sameSet = contacts.boundVersion != 0 && contacts.boundVersion == candidates.version;
+  const bool formerSet = contacts.boundVersion != 0 &&
+                         contacts.boundVersion + 1 == candidates.version &&
+                         candidates.formerIndex.size() == n;
+  const bool carry = (sameSet || formerSet) && contacts.predicted.size() == particleCount &&
+                     contacts.lowerBound.size() == (sameSet ? n : contacts.lowerBound.size());
+  if (formerSet && carry) {
+    contacts.formerLowerBound.swap(contacts.lowerBound);
+    contacts.lowerBound.resize(n);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                          const Index former = candidates.formerIndex[i];
+                          contacts.lowerBound[i] = former != CandidatePairs::kNewPair &&
+                                                           former < contacts.formerLowerBound.size()
+                                                       ? contacts.formerLowerBound[former]
+                                                       : -kInfinity;
+                        }
+                      });
+  } else if (!carry) {
+    contacts.lowerBound.assign(n, -kInfinity);
+  }
+  if (carry) {
+    // Per particle: how far the substep's start strays from the position the bounds were taken
+    // at, and how far its motion strays from the mean motion.
+    const Vec3d mean = meanMotion(particles, contacts.chunkMotion, contacts.chunkMovers);
+    contacts.deviation.resize(particleCount);
+    contacts.relativeMotion.resize(particleCount);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particleCount, kParticleGrain),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                          const Vec3d x = particles.x[i].cast<double>();
+                          contacts.deviation[i] = (x - contacts.predicted[i].cast<double>()).norm();
+                          contacts.relativeMotion[i] =
+                              (particles.p[i].cast<double>() - x - mean).norm();
+                        }
+                      });
+  }
   // One pass: each fixed chunk of candidates keeps its contacts in candidate order, and the
-  // chunks are concatenated in order, whatever the thread count.
+  // chunks are concatenated in order, whatever the thread count. A pair whose carried bound
+  // keeps it out of reach over this substep's motion is not measured again (see the header).
   const std::size_t chunks = (n + kContactChunk - 1) / kContactChunk;
   if (contacts.chunkContacts.size() < chunks) contacts.chunkContacts.resize(chunks);
   tbb::parallel_for(
@@ -394,7 +480,19 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
           for (std::size_t i = chunk * kContactChunk; i < end; ++i) {
             const PairView v =
                 viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
-            if (makeContact(v, particles, surfaces, contacts.startDistance[i], record))
+            if (carry && contacts.lowerBound[i] > -kInfinity) {
+              const auto stray = sideMaxima(v, contacts.deviation);
+              const auto spread = sideMaxima(v, contacts.relativeMotion);
+              const double start = contacts.lowerBound[i] - stray[0] - stray[1];
+              const double over = start - spread[0] - spread[1];
+              if (over > double(v.radius) + double(kPrimitiveContactMargin) + kBoundTolerance) {
+                contacts.startDistance[i] = start;
+                contacts.lowerBound[i] = over;
+                continue;
+              }
+            }
+            if (makeContact(v, particles, surfaces, contacts.startDistance[i],
+                            contacts.lowerBound[i], record))
               made.push_back(record);
           }
         }
@@ -414,6 +512,8 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
                       }
                     });
   buildIncidence(contacts, particles.size());
+  contacts.predicted.assign(particles.p.begin(), particles.p.end());
+  contacts.boundVersion = candidates.version;
 }
 
 void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& particles,
@@ -472,10 +572,16 @@ void applyPrimitiveFriction(PrimitiveContactPool& contacts, ParticlePool& partic
 void measureStartDistances(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
                            const CollisionPrimitives& primitives, const ParticlePool& particles) {
   const std::size_t n = candidates.size();
-  // After an incremental re-detection the pairs that were already in the set keep the distance
-  // the narrow phase measured for them at the same start positions.
+  // After a re-detection the pairs that were already in the set keep the distance the narrow
+  // phase measured for them at the same start positions, and their lower bounds over the same
+  // predicted motion; a new pair has none.
   const bool carry = candidates.formerIndex.size() == n;
   if (carry) contacts.startDistance.swap(contacts.formerStartDistance);
+  const bool carryBounds =
+      carry && contacts.boundVersion != 0 && contacts.boundVersion + 1 == candidates.version;
+  if (carryBounds) contacts.formerLowerBound.swap(contacts.lowerBound);
+  contacts.lowerBound.assign(n, -kInfinity);
+  contacts.boundVersion = candidates.version;
   contacts.startDistance.resize(n);
   contacts.suspect.resize(n);
   tbb::parallel_for(
@@ -484,6 +590,8 @@ void measureStartDistances(PrimitiveContactPool& contacts, const CandidatePairs&
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
           if (carry && candidates.formerIndex[i] != CandidatePairs::kNewPair) {
             contacts.startDistance[i] = contacts.formerStartDistance[candidates.formerIndex[i]];
+            if (carryBounds)
+              contacts.lowerBound[i] = contacts.formerLowerBound[candidates.formerIndex[i]];
             continue;
           }
           const PairView v =
@@ -522,6 +630,21 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
   const std::size_t n = candidates.size();
   // The round in which the fail-safe last moved each particle (0: not yet).
   contacts.failsafeRound.assign(particles.size(), 0);
+  // A pair whose lower bound over the predicted motion exceeds how far its particles' final
+  // positions strayed from the prediction cannot have crossed (see the header).
+  const bool bounded = contacts.boundVersion == candidates.version &&
+                       contacts.lowerBound.size() == n &&
+                       contacts.predicted.size() == particles.size();
+  if (bounded) {
+    contacts.deviation.resize(particles.size());
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, particles.size(), kParticleGrain),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+          for (std::size_t i = r.begin(); i != r.end(); ++i)
+            contacts.deviation[i] =
+                (particles.p[i].cast<double>() - contacts.predicted[i].cast<double>()).norm();
+        });
+  }
   for (int round = 0; round < kMaxFailsafeRounds; ++round) {
     // Pairs whose start distance the final motion could have used up, tested by CCD at zero
     // thickness: does any point of one reach the other? After the first round only the pairs
@@ -538,6 +661,10 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
               if (!moved) continue;
             }
             contacts.suspect[i] = 0;
+            if (round == 0 && bounded) {
+              const auto stray = sideMaxima(v, contacts.deviation);
+              if (contacts.lowerBound[i] - stray[0] - stray[1] > kBoundTolerance) continue;
+            }
             Vec3d X0[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
             Vec3d X1[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
             for (int k = 0; k < v.count; ++k) {

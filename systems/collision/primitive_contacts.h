@@ -17,6 +17,21 @@
 //
 // Pairs within one object that are closer than their contact distance in the rest shape get no
 // contact (the mesh's own constraints hold them), but they are still checked for crossings.
+//
+// Lower bounds. Most candidate pairs never come near each other (neighbours in a sheet, layers
+// of a pile two apart), and measuring them again every substep was most of the narrow phase.
+// The narrow phase keeps, per pair, a lower bound L on the pair's distance over the predicted
+// motion x → p it measured, and per particle the p it was measured for. A point of a primitive
+// is a convex combination of its particles, so it strays from where the prediction put it by at
+// most the most any of its particles strays, and moves, relative to any common translation ū, by
+// at most the most any of its particles does. Hence, with D_k = |x_k − p_k(last)| and
+// M_k = |p_k − x_k − ū| (ū the mean motion of the free particles), over the next substep the
+// pair's distance is at least L − max_A D − max_B D − max_A M − max_B M: a pair whose bound so
+// carried still exceeds its reach is passed over, keeping the smaller bound, and only the others
+// are measured. The pair set is followed from substep to substep through
+// CandidatePairs::formerIndex. In the same way the fail-safe passes over a pair whose bound
+// exceeds how far its particles' final positions strayed from the prediction: it cannot have
+// crossed.
 #pragma once
 
 #include <cstddef>
