@@ -53,6 +53,26 @@ World worldWith(SolverKind kind, int substeps) {
   return world;
 }
 
+// A vertical 0.8 m cloth of 24² vertices, 6 mm thick, 0.5 m up and moving at 0.3 m/s along z
+// over the ground: it falls and folds onto itself.
+World foldingClothWorld(bool selfCollision) {
+  World world = worldWith(SolverKind::ColoredGaussSeidel, 2);
+  GroundPlane ground;
+  ground.enabled = true;
+  world.setGround(ground);
+  GridSpec spec;
+  spec.resolution = {24, 24};
+  spec.size = {Real(0.8), Real(0.8)};
+  spec.center = Vec3(0, Real(0.5), 0);
+  spec.vertical = true;
+  ObjectDef cloth = gridCloth(spec);
+  cloth.velocity = Vec3(0, 0, Real(0.3));
+  cloth.material.thickness = Real(0.006);
+  cloth.material.selfCollision = selfCollision;
+  world.addCloth(cloth);
+  return world;
+}
+
 }  // namespace
 
 TEST(CollisionPrimitives, ListsFollowKindsAndFlags) {
@@ -217,20 +237,7 @@ TEST(CollisionResponse, RestitutionBounces) {
 TEST(CollisionResponse, FoldingClothDoesNotIntersectItself) {
   std::size_t withoutSelfCollision = 0;
   for (bool self : {true, false}) {
-    World world = worldWith(SolverKind::ColoredGaussSeidel, 2);
-    GroundPlane ground;
-    ground.enabled = true;
-    world.setGround(ground);
-    GridSpec spec;
-    spec.resolution = {24, 24};
-    spec.size = {Real(0.8), Real(0.8)};
-    spec.center = Vec3(0, Real(0.5), 0);
-    spec.vertical = true;
-    ObjectDef cloth = gridCloth(spec);
-    cloth.velocity = Vec3(0, 0, Real(0.3));
-    cloth.material.thickness = Real(0.006);
-    cloth.material.selfCollision = self;
-    world.addCloth(cloth);
+    World world = foldingClothWorld(self);
     std::size_t most = 0;
     for (int frame = 0; frame < 60; ++frame) {
       world.step(1.0 / 60);
@@ -307,20 +314,7 @@ TEST(CollisionScenes, BulletClothPelletNeverTunnelsUnderMultigrid) {
 // no approach within 0.9 of the reach), the second substep passes over many pairs without
 // measuring them, and it makes exactly the contacts of a narrow phase that measures every pair.
 TEST(PrimitiveContacts, CarriedLowerBoundsKeepEveryContact) {
-  World world = worldWith(SolverKind::ColoredGaussSeidel, 2);
-  GroundPlane ground;
-  ground.enabled = true;
-  world.setGround(ground);
-  GridSpec spec;
-  spec.resolution = {24, 24};
-  spec.size = {Real(0.8), Real(0.8)};
-  spec.center = Vec3(0, Real(0.5), 0);
-  spec.vertical = true;
-  ObjectDef cloth = gridCloth(spec);
-  cloth.velocity = Vec3(0, 0, Real(0.3));
-  cloth.material.thickness = Real(0.006);
-  cloth.material.selfCollision = true;
-  world.addCloth(cloth);
+  World world = foldingClothWorld(true);
   for (int frame = 0; frame < 40; ++frame) world.step(1.0 / 60);
   const WorldState& s = world.impl().state;
   const CollisionPrimitives& primitives = s.primitives;
@@ -382,7 +376,7 @@ TEST(PrimitiveContacts, CarriedLowerBoundsKeepEveryContact) {
     ASSERT_FALSE(approach.hit) << "pair " << i << " bound " << carried.lowerBound[i];
   }
   EXPECT_GT(passedOver, pairs.size() / 4);  // 40% here
-  EXPECT_GE(outOfReach, passedOver);  // a pair is passed over only while its bound is
+  EXPECT_GE(outOfReach, passedOver);        // a pair is passed over only while its bound is
   ASSERT_EQ(carried.size(), measured.size());
   ASSERT_GT(measured.size(), 0u);
   for (std::size_t c = 0; c < measured.size(); ++c) {

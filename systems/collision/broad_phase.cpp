@@ -196,6 +196,19 @@ std::size_t appendInOrder(CandidatePairs& out, PrimitiveBvh& bvh, PairKind kind,
   return added;
 }
 
+// The first index in [low, high) whose key is not below `key`, for keys ascending in the index.
+template <class KeyOf, class Key>
+std::size_t firstNotBelow(const KeyOf& keyOf, std::size_t low, std::size_t high, const Key& key) {
+  while (low < high) {
+    const std::size_t middle = low + (high - low) / 2;
+    if (keyOf(middle) < key)
+      low = middle + 1;
+    else
+      high = middle;
+  }
+  return low;
+}
+
 // formerIndex of a full broad phase: both sets are sorted by (kind, first, second), so each
 // chunk of the new pairs finds where it starts among the former ones by bisection and then
 // merges along them.
@@ -209,15 +222,7 @@ void matchFormerPairs(CandidatePairs& pairs) {
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       const auto first = std::tuple(pairs.kind[r.begin()], pairs.first[r.begin()],
                                                     pairs.second[r.begin()]);
-                      std::size_t low = 0, high = former;
-                      while (low < high) {
-                        const std::size_t middle = low + (high - low) / 2;
-                        if (formerKey(middle) < first)
-                          low = middle + 1;
-                        else
-                          high = middle;
-                      }
-                      std::size_t j = low;
+                      std::size_t j = firstNotBelow(formerKey, 0, former, first);
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
                         const auto key = std::tuple(pairs.kind[i], pairs.first[i], pairs.second[i]);
                         while (j < former && formerKey(j) < key) ++j;
@@ -609,14 +614,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
       const auto pair = std::tuple(static_cast<PairKind>(kind), static_cast<Index>(key >> 32),
                                    static_cast<Index>(key & 0xffffffffu));
       // The first old pair not below the new one.
-      std::size_t low = copied, high = pairs.size();
-      while (low < high) {
-        const std::size_t middle = low + (high - low) / 2;
-        if (keyOf(middle) < pair)
-          low = middle + 1;
-        else
-          high = middle;
-      }
+      const std::size_t low = firstNotBelow(keyOf, copied, pairs.size(), pair);
       copyUpTo(low);
       if (low < pairs.size() && keyOf(low) == pair) continue;  // already a pair, kept
       pairs.formerIndex.push_back(CandidatePairs::kNewPair);

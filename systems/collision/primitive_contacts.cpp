@@ -431,8 +431,8 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
   const bool formerSet = contacts.boundVersion != 0 &&
                          contacts.boundVersion + 1 == candidates.version &&
                          candidates.formerIndex.size() == n;
-  const bool carry = (sameSet || formerSet) && contacts.predicted.size() == particleCount &&
-                     contacts.lowerBound.size() == (sameSet ? n : contacts.lowerBound.size());
+  const bool carry = (formerSet || (sameSet && contacts.lowerBound.size() == n)) &&
+                     contacts.predicted.size() == particleCount;
   if (formerSet && carry) {
     contacts.formerLowerBound.swap(contacts.lowerBound);
     contacts.lowerBound.resize(n);
