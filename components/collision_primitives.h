@@ -47,6 +47,12 @@ struct CollisionPrimitives {
   std::vector<Real> triangleRadius;
   std::vector<std::uint32_t> triangleObject;
 
+  // A triangle of the same object that contains each point and each edge (kNoTriangle where
+  // none does): the frame whose rigid motion the fail-safe carries particles by when a
+  // kinematic point or edge meets them (primitive_contacts.h).
+  static constexpr Index kNoTriangle = ~Index{0};
+  std::vector<Index> pointTriangle;
+  std::vector<Index> edgeTriangle;
   // Per object: the coefficients its contacts mix (friction, restitution, stickiness).
   std::vector<ObjectSurface> objectSurface;
 
@@ -72,6 +78,7 @@ struct CollisionPrimitives {
   void clear() {
     pointParticle.clear(), pointRadius.clear(), pointObject.clear(), pointIsolated.clear();
     edgeParticles.clear(), edgeRadius.clear(), edgeObject.clear();
+    pointTriangle.clear(), edgeTriangle.clear();
     triangleParticles.clear(), triangleRadius.clear(), triangleObject.clear();
     objectSurface.clear(), excludedPairs.clear();
     smallestRadius = 0;

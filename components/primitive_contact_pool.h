@@ -74,6 +74,13 @@ struct PrimitiveContactPool {
   // Per particle: the fail-safe round that last moved it, plus one (0: none), so that a round
   // re-tests only the pairs the one before changed.
   std::vector<int> failsafeRound;
+  // Per particle: what the fail-safe holds it to (primitive_contacts.h, resolveCrossings): its
+  // precedence (0: its own predicted motion, 1: stopped where the substep started, higher: carried
+  // by the rigid motion of a kinematic body, a lower object and triangle first), and, when
+  // carried, that motion x → R x + t.
+  std::vector<std::uint64_t> carryPrecedence;
+  std::vector<Mat3d> carryRotation;
+  std::vector<Vec3d> carryTranslation;
 
   // What the narrow phase learned of each pair, kept from substep to substep so that a pair far
   // from contact is not measured again (primitive_contacts.h, "Lower bounds"):

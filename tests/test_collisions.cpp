@@ -265,7 +265,7 @@ TEST(CollisionResponse, FoldingClothDoesNotIntersectItself) {
 // scene's solver and under multigrid with either smoother, whose cascade moves the cloth's
 // particles between contact projections.
 static void expectPelletNeverTunnels(std::optional<SolverKind> kind, SolverKind smoother) {
-  Scene scene = loadScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/bullet_cloth.json");
+  Scene scene = loadScene(NUCLEON_ASSETS_DIR "/scenes/bullet_cloth.json");
   if (kind) {
     scene.solver.kind = *kind;
     scene.solver.smoother = smoother;
@@ -383,4 +383,105 @@ TEST(PrimitiveContacts, CarriedLowerBoundsKeepEveryContact) {
     EXPECT_EQ(carried.particles[c], measured.particles[c]) << c;
     EXPECT_EQ(carried.normal[c], measured.normal[c]) << c;
   }
+}
+
+// A free point that the solve left crossing a triangle of a turning collider is carried by the
+// collider's rigid motion: it ends where that motion takes its start, as seen from the triangle
+// (not by the triangle's mean displacement, which for a turn leaves it somewhere else).
+TEST(CrossingFailsafe, CarriesAPointWithATurningTriangleRigidly) {
+  ParticlePool particles;
+  particles.append(4);
+  // A triangle 0.3–0.5 m from the turning axis (y), turned by 20° over the substep; the point
+  // starts 4 mm above it and was predicted to fall 2 cm, through it.
+  const Vec3 corners[3] = {Vec3(0.3f, 0, -0.1f), Vec3(0.5f, 0, -0.1f), Vec3(0.4f, 0, 0.1f)};
+  const Eigen::Matrix3f turn = Eigen::AngleAxisf(0.349066f, Eigen::Vector3f::UnitY()).matrix();
+  for (int k = 0; k < 3; ++k) {
+    particles.x[k] = corners[k];
+    particles.p[k] = turn * corners[k];
+    particles.restPosition[k] = corners[k];
+  }
+  particles.x[3] = Vec3(0.4f, 0.004f, 0);
+  particles.p[3] = particles.x[3] - Vec3(0, 0.02f, 0);
+  particles.w[3] = 1;
+  particles.restPosition[3] = particles.x[3];
+  CollisionPrimitives primitives;
+  primitives.objectSurface.resize(2);
+  primitives.pointParticle = {3};
+  primitives.pointRadius = {Real(0.001)};
+  primitives.pointObject = {1};
+  primitives.pointIsolated = {1};
+  primitives.pointTriangle = {CollisionPrimitives::kNoTriangle};
+  primitives.triangleParticles = {{0, 1, 2}};
+  primitives.triangleRadius = {Real(0.001)};
+  primitives.triangleObject = {0};
+  primitives.smallestRadius = Real(0.001);
+
+  CandidatePairs pairs;
+  PrimitiveBvh bvh;
+  findCandidatePairs(pairs, bvh, primitives, particles.x, particles.p, particles.w,
+                     kPrimitiveContactMargin);
+  setMotionBounds(pairs, particles.x, particles.p);
+  growParticleBounds(pairs, boundSlack(primitives, kPrimitiveContactMargin));
+  ASSERT_EQ(pairs.size(), 1u);
+  PrimitiveContactPool contacts;
+  measureStartDistances(contacts, pairs, primitives, particles);
+  const CrossingReport report = resolveCrossings(contacts, pairs, primitives, particles);
+
+  EXPECT_EQ(report.carried, 1u);
+  EXPECT_EQ(report.unresolved, 0u);
+  const Vec3 expected = turn * particles.x[3];
+  EXPECT_LT((particles.p[3] - expected).norm(), 1e-5f);
+  // Still 4 mm above the turned triangle, on the side it started.
+  EXPECT_NEAR(particles.p[3].y(), 0.004f, 1e-5f);
+  const Vec3 meanShift =
+      (particles.p[0] + particles.p[1] + particles.p[2] - corners[0] - corners[1] - corners[2]) / 3;
+  EXPECT_GT((particles.x[3] + meanShift - expected).norm(), 0.005f);
+}
+
+TEST(CrossingFailsafe, CarriesATriangleWithATurningColliderVertexRigidly) {
+  // A collider triangle (particles 0–2, turning 20° about y) whose vertex 0 is also a point
+  // primitive, and a free cloth triangle (3–5) 4 mm below that vertex, predicted to rise 2 cm
+  // through it.
+  ParticlePool particles;
+  particles.append(6);
+  const Vec3 corners[3] = {Vec3(0.4f, 0, 0), Vec3(0.6f, 0, -0.1f), Vec3(0.6f, 0, 0.1f)};
+  const Eigen::Matrix3f turn = Eigen::AngleAxisf(0.349066f, Eigen::Vector3f::UnitY()).matrix();
+  for (int k = 0; k < 3; ++k) {
+    particles.x[k] = corners[k];
+    particles.p[k] = turn * corners[k];
+    particles.restPosition[k] = corners[k];
+  }
+  const Vec3 cloth[3] = {Vec3(0.35f, -0.004f, -0.05f), Vec3(0.45f, -0.004f, -0.05f),
+                         Vec3(0.4f, -0.004f, 0.05f)};
+  for (int k = 0; k < 3; ++k) {
+    particles.x[3 + k] = cloth[k];
+    particles.p[3 + k] = cloth[k] + Vec3(0, 0.02f, 0);
+    particles.w[3 + k] = 1;
+    particles.restPosition[3 + k] = cloth[k];
+  }
+  CollisionPrimitives primitives;
+  primitives.objectSurface.resize(2);
+  primitives.pointParticle = {0};
+  primitives.pointRadius = {Real(0.001)};
+  primitives.pointObject = {0};
+  primitives.pointIsolated = {0};
+  primitives.pointTriangle = {0};
+  primitives.triangleParticles = {{0, 1, 2}, {3, 4, 5}};
+  primitives.triangleRadius = {Real(0.001), Real(0.001)};
+  primitives.triangleObject = {0, 1};
+  primitives.smallestRadius = Real(0.001);
+
+  CandidatePairs pairs;
+  PrimitiveBvh bvh;
+  findCandidatePairs(pairs, bvh, primitives, particles.x, particles.p, particles.w,
+                     kPrimitiveContactMargin);
+  setMotionBounds(pairs, particles.x, particles.p);
+  growParticleBounds(pairs, boundSlack(primitives, kPrimitiveContactMargin));
+  ASSERT_EQ(pairs.size(), 1u);
+  PrimitiveContactPool contacts;
+  measureStartDistances(contacts, pairs, primitives, particles);
+  const CrossingReport report = resolveCrossings(contacts, pairs, primitives, particles);
+  EXPECT_EQ(report.carried, 3u);
+  EXPECT_EQ(report.unresolved, 0u);
+  for (int k = 0; k < 3; ++k) EXPECT_LT((particles.p[3 + k] - turn * cloth[k]).norm(), 1e-5f) << k;
 }

@@ -58,6 +58,31 @@ const char* kRunHelp =
     "  --quiet           no progress output\n"
     "Flags override the scene file, which overrides the defaults. Bad input: exit code 2.\n";
 
+// An edge this many times its rest length (or longer) in any frame makes a run not clean: the
+// cloth is torn in all but name.
+constexpr double kOverstretchedLength = 3.0;
+
+// The failures a run met, over all of its frames: intersecting triangle pairs (exact checker),
+// edges stretched beyond kOverstretchedLength, and, from the world's counters, repairs and
+// crossings the fail-safe left. A run with any of them is reported as not clean.
+struct FailureTally {
+  std::uint64_t framesWithIntersections = 0;
+  std::uint64_t maxIntersections = 0;
+  std::uint64_t overstretchedFrames = 0;
+  double worstStrain = 0;
+
+  void add(const Measures& m) {
+    framesWithIntersections += m.intersections > 0;
+    maxIntersections = std::max<std::uint64_t>(maxIntersections, m.intersections);
+    overstretchedFrames += m.maxStretch >= kOverstretchedLength - 1;
+    worstStrain = std::max(worstStrain, m.maxStrain);
+  }
+  bool clean(std::uint64_t nanCount, std::uint64_t repairs, std::uint64_t unresolved) const {
+    return framesWithIntersections == 0 && overstretchedFrames == 0 && nanCount == 0 &&
+           repairs == 0 && unresolved == 0;
+  }
+};
+
 struct RunOptions {
   std::string scene;
   std::optional<int> frames, substeps, threads, iterations;
@@ -174,6 +199,8 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
   const double dt = 1.0 / scene.fps;
   nlohmann::json perFrame = nlohmann::json::array(), energy = nlohmann::json::array();
   double stepSeconds = 0;
+  // What keeps a run from being clean, frame by frame (every frame counts, not only the last).
+  FailureTally failures;
   Progress progress(err, scene.frames, o.quiet);
   const auto wallStart = Clock::now();
   for (int frame = 1; frame <= scene.frames; ++frame) {
@@ -183,6 +210,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
     stepSeconds += seconds;
     const Measures m = world.measure();
     energy.push_back(m.kineticEnergy + m.potentialEnergy);
+    failures.add(m);
     perFrame.push_back({{"frame", frame},
                         {"ms", seconds * 1e3},
                         {"max_strain", m.maxStrain},
@@ -258,6 +286,14 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
       {"recoveries_by_kind",
        {{"non_finite", recoveries.nonFinite}, {"missed_contacts", recoveries.missedContacts}}},
       {"first_recovery_frame", firstRecoveryFrame},
+      {"failures",
+       {{"clean",
+         failures.clean(nanCount, recoveries.total(), world.collisionReport().unresolvedPairs)},
+        {"frames_with_intersections", failures.framesWithIntersections},
+        {"max_intersections", failures.maxIntersections},
+        {"overstretched_frames", failures.overstretchedFrames},
+        {"worst_frame_max_strain", failures.worstStrain},
+        {"unresolved_crossing_pairs", world.collisionReport().unresolvedPairs}}},
       {"min_height", m.minHeight},
       {"volume_ratio", m.volumeRatio >= 0 ? nlohmann::json(m.volumeRatio) : nlohmann::json()},
       {"energy", energy},
@@ -291,6 +327,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
         {"clamped_particles", c.clampedParticles},
         {"crossings_stopped", c.crossings},
         {"stopped_particles", c.stoppedParticles},
+        {"carried_particles", c.carriedParticles},
         {"unresolved_pairs", c.unresolvedPairs},
         {"first_crossing_step",
          c.firstCrossingStep > 0 ? nlohmann::json(c.firstCrossingStep) : nlohmann::json()}};
@@ -311,6 +348,20 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
       << m.minHeight << ", NaN " << nanCount << ", recoveries " << recoveries.total();
   if (recoveries.firstStep > 0) out << " (first at frame " << recoveries.firstStep << ')';
   out << ", state " << hex16(world.stateHash()) << '\n';
+  const std::uint64_t unresolved = world.collisionReport().unresolvedPairs;
+  if (!failures.clean(nanCount, recoveries.total(), unresolved)) {
+    out << "  NOT CLEAN:";
+    if (failures.framesWithIntersections > 0)
+      out << " intersections in " << failures.framesWithIntersections << " frames (most "
+          << failures.maxIntersections << ")";
+    if (failures.overstretchedFrames > 0)
+      out << " edges beyond " << kOverstretchedLength << "x their rest length in "
+          << failures.overstretchedFrames << " frames (worst strain " << failures.worstStrain
+          << ")";
+    if (unresolved > 0) out << " " << unresolved << " crossing pairs left unresolved";
+    if (nanCount > 0 || recoveries.total() > 0) out << " repairs (NaN, recoveries above)";
+    out << '\n';
+  }
   if (!o.renderFile.empty()) out << "  picture: " << o.renderFile << '\n';
   if (!o.statsFile.empty()) out << "  stats: " << o.statsFile << '\n';
   if (!o.outDir.empty()) out << "  meshes: " << o.outDir << '\n';

@@ -168,6 +168,7 @@ void StepGraph::runStage(int stage) {
       report.colliderRedetections += solve.colliderRedetections;
       report.crossings += crossing.crossings;
       report.stoppedParticles += crossing.stopped;
+      report.carriedParticles += crossing.carried;
       report.unresolvedPairs += crossing.unresolved;
       if (crossing.crossings > 0 && report.firstCrossingStep == 0)
         report.firstCrossingStep = c.step;

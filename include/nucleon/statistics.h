@@ -60,6 +60,7 @@ struct CollisionReport {
   std::uint64_t clampedParticles = 0;   // particles held within their broad-phase bounds
   std::uint64_t crossings = 0;          // crossing pairs the fail-safe stopped
   std::uint64_t stoppedParticles = 0;   // particle positions the fail-safe reset
+  std::uint64_t carriedParticles = 0;   // … of them carried by a kinematic body's rigid motion
   std::uint64_t unresolvedPairs = 0;    // pairs still crossing at the fail-safe's round limit
   std::uint64_t firstCrossingStep = 0;  // 1-based step of the first fail-safe action; 0 if none
 };

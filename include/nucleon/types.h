@@ -21,6 +21,7 @@ using Real = float;
 // Unaligned 3-vector: 12 bytes in float, so an array of them is densely packed (no padding to 16).
 using Vec3 = Eigen::Matrix<Real, 3, 1, Eigen::DontAlign>;
 using Vec3d = Eigen::Matrix<double, 3, 1, Eigen::DontAlign>;
+using Mat3d = Eigen::Matrix<double, 3, 3, Eigen::DontAlign>;
 
 // Index of a particle (0-simplex) or of a higher simplex inside its pool.
 using Index = std::uint32_t;

@@ -417,6 +417,92 @@ std::array<double, 2> sideMaxima(const PairView& v, const std::vector<double>& v
   return most;
 }
 
+// The rigid motion x → R x + t of kinematic particles `ids` (one to three), from their
+// positions at the start (x) and end (p) of the substep: the frame of a triangle, the shortest
+// turn of an edge about its midpoint, the displacement of a point. Exact for particles that move
+// rigidly (a keyframed collider, a pinned ring); for a bent body, the rigid motion of that
+// triangle.
+struct RigidMotion {
+  Mat3d rotation = Mat3d::Identity();
+  Vec3d translation = Vec3d::Zero();
+};
+
+RigidMotion kinematicMotion(const Index* ids, int count, const ParticlePool& particles) {
+  RigidMotion motion;
+  // Particles that stand still or only translate (the common case) get exactly that, unrounded.
+  const Vec3 shift = particles.p[ids[0]] - particles.x[ids[0]];
+  bool translates = true;
+  for (int k = 1; k < count; ++k) translates &= particles.p[ids[k]] - particles.x[ids[k]] == shift;
+  if (translates) {
+    motion.translation = shift.cast<double>();
+    return motion;
+  }
+  Vec3d X0[3], X1[3];
+  for (int k = 0; k < count; ++k) {
+    X0[k] = particles.x[ids[k]].cast<double>();
+    X1[k] = particles.p[ids[k]].cast<double>();
+  }
+  const auto frame = [](const Vec3d* X, Mat3d& F) {
+    const Vec3d e1 = (X[1] - X[0]).normalized();
+    const Vec3d n = e1.cross(X[2] - X[0]).normalized();
+    F.col(0) = e1, F.col(1) = n.cross(e1), F.col(2) = n;
+    return F.allFinite();
+  };
+  Mat3d F0, F1;
+  if (count == 3 && (X0[1] - X0[0]).cross(X0[2] - X0[0]).norm() > 1e-12 &&
+      (X1[1] - X1[0]).cross(X1[2] - X1[0]).norm() > 1e-12 && frame(X0, F0) && frame(X1, F1)) {
+    motion.rotation = F1 * F0.transpose();
+    motion.translation = X1[0] - motion.rotation * X0[0];
+  } else if (count >= 2 && (X0[1] - X0[0]).norm() > 1e-12 && (X1[1] - X1[0]).norm() > 1e-12) {
+    motion.rotation =
+        Eigen::Quaterniond::FromTwoVectors(X0[1] - X0[0], X1[1] - X1[0]).toRotationMatrix();
+    motion.translation = (X1[0] + X1[1]) / 2 - motion.rotation * ((X0[0] + X0[1]) / 2);
+  } else {
+    motion.translation = X1[0] - X0[0];
+  }
+  if (!motion.rotation.allFinite() || !motion.translation.allFinite()) motion = RigidMotion{};
+  return motion;
+}
+
+// What the fail-safe holds the free particles of a pair to when one side has no free particle:
+// the rigid motion of that side, taken from a triangle of its object that contains it where one
+// is kinematic throughout (a point or an edge alone leaves the turn about itself unknown), and
+// the precedence of that motion: a lower object, then a lower triangle (or particle), first.
+struct Carry {
+  std::uint64_t precedence = 1;  // 1: stopped
+  RigidMotion motion;
+};
+
+Carry kinematicCarry(const PairView& v, bool firstSide, PairKind kind, Index primitive,
+                     const CollisionPrimitives& prims, const ParticlePool& particles) {
+  Index triangle = CollisionPrimitives::kNoTriangle;
+  const bool point = firstSide ? kind != PairKind::EdgeEdge : kind == PairKind::VertexVertex;
+  const bool edge = !point && (firstSide || kind != PairKind::VertexFace);
+  if (!firstSide && kind == PairKind::VertexFace)
+    triangle = primitive;
+  else if (point && primitive < prims.pointTriangle.size())
+    triangle = prims.pointTriangle[primitive];
+  else if (edge && primitive < prims.edgeTriangle.size())
+    triangle = prims.edgeTriangle[primitive];
+  const std::uint64_t object =
+      std::numeric_limits<std::uint32_t>::max() - (firstSide ? v.objectA : v.objectB);
+  Carry carry;
+  if (triangle != CollisionPrimitives::kNoTriangle) {
+    const auto& t = prims.triangleParticles[triangle];
+    if (particles.w[t[0]] == 0 && particles.w[t[1]] == 0 && particles.w[t[2]] == 0) {
+      carry.precedence = object << 32 | (std::numeric_limits<std::uint32_t>::max() - triangle);
+      carry.motion = kinematicMotion(t.data(), 3, particles);
+      return carry;
+    }
+  }
+  const int begin = firstSide ? 0 : v.firstSide, end = firstSide ? v.firstSide : v.count;
+  Index lowest = v.id[begin];
+  for (int k = begin; k < end; ++k) lowest = std::min(lowest, v.id[k]);
+  carry.precedence = object << 32 | (std::numeric_limits<std::uint32_t>::max() - lowest);
+  carry.motion = kinematicMotion(v.id + begin, end - begin, particles);
+  return carry;
+}
+
 }  // namespace
 
 void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
@@ -645,6 +731,9 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
                 (particles.p[i].cast<double>() - contacts.predicted[i].cast<double>()).norm();
         });
   }
+  contacts.carryPrecedence.assign(particles.size(), 0);
+  contacts.carryRotation.resize(particles.size());
+  contacts.carryTranslation.resize(particles.size());
   for (int round = 0; round < kMaxFailsafeRounds; ++round) {
     // Pairs whose start distance the final motion could have used up, tested by CCD at zero
     // thickness: does any point of one reach the other? After the first round only the pairs
@@ -688,29 +777,46 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
       const PairView v =
           viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
       bool freeA = false, freeB = false;
-      Vec3 shiftA = Vec3::Zero(), shiftB = Vec3::Zero();
+      for (int k = 0; k < v.count; ++k)
+        (k < v.firstSide ? freeA : freeB) |= particles.w[v.id[k]] > 0;
+      // What the pair's free particles are held to: stopped where the substep started, or carried
+      // by the rigid motion of a side with no free particle (a collider, a pinned group), or by
+      // what a particle of the pair is held to already where that ranks higher. Holding every
+      // particle of a crossing pair to one rigid motion keeps the pair as it was at the start,
+      // which was crossing-free. A particle's precedence only grows (stopped over moving,
+      // carried over stopped, a lower body and triangle over a higher one), so the rounds end:
+      // a patch held to a body moves with it, and a squeeze between two bodies is reported as
+      // unresolved rather than flipped back and forth. (Letting the latest crossing decide, as
+      // the mean-translation carry before it did, flipped particles between stopped and carried
+      // until the round limit on a box turning under a draped cloth.)
+      Carry held;
+      if (freeA != freeB)
+        held = kinematicCarry(v, !freeA, candidates.kind[i],
+                              freeA ? candidates.second[i] : candidates.first[i], primitives,
+                              particles);
       for (int k = 0; k < v.count; ++k) {
         const Index id = v.id[k];
-        const bool isFree = particles.w[id] > 0;
-        const Vec3 motion = particles.p[id] - particles.x[id];
-        if (k < v.firstSide)
-          freeA |= isFree, shiftA += motion / Real(v.firstSide);
-        else
-          freeB |= isFree, shiftB += motion / Real(v.count - v.firstSide);
+        if (particles.w[id] > 0 && contacts.carryPrecedence[id] > held.precedence) {
+          held.precedence = contacts.carryPrecedence[id];
+          held.motion = RigidMotion{contacts.carryRotation[id], contacts.carryTranslation[id]};
+        }
       }
-      // A free side against a side that cannot move is carried along with it; otherwise the free
-      // particles stop where the substep started.
       for (int k = 0; k < v.count; ++k) {
         const Index id = v.id[k];
-        if (particles.w[id] == 0) continue;
-        const bool sideA = k < v.firstSide;
-        const bool otherFree = sideA ? freeB : freeA;
-        const Vec3 target =
-            otherFree ? particles.x[id] : particles.x[id] + (sideA ? shiftB : shiftA);
+        if (particles.w[id] == 0 || contacts.carryPrecedence[id] >= held.precedence) continue;
+        contacts.carryPrecedence[id] = held.precedence;
+        contacts.carryRotation[id] = held.motion.rotation;
+        contacts.carryTranslation[id] = held.motion.translation;
+        const Vec3 target = held.precedence == 1
+                                ? particles.x[id]
+                                : Vec3((held.motion.rotation * particles.x[id].cast<double>() +
+                                        held.motion.translation)
+                                           .cast<Real>());
         if (particles.p[id] != target) {
           particles.p[id] = target;
           contacts.failsafeRound[id] = round + 1;
           ++report.stopped;
+          if (held.precedence > 1) ++report.carried;
         }
       }
     }

@@ -8,11 +8,12 @@
 //   applyPrimitiveFriction    end of the solve: Coulomb friction on the substep's relative
 //                             tangential motion, bounded by μ λ_n (Macklin et al. 2014 §6)
 //   resolveCrossings          end of the solve: the final motion x → p of every candidate pair
-//                             is checked by CCD at zero thickness; particles of a crossing pair
-//                             stop where the substep started (or follow the kinematic primitive
-//                             that pushes them), which can only shrink motions, until none is
-//                             left: a bounded impact-zone fail-safe (Bridson et al. 2002 §7.4
-//                             in spirit) that keeps an intersection-free state intersection-free
+//                             is checked by CCD at zero thickness; the free particles of a
+//                             crossing pair are held to one rigid motion: stopped where the
+//                             substep started, or carried by the rigid motion of a kinematic side
+//                             (a turning collider, a pinned ring), until none is left: a bounded
+//                             impact-zone fail-safe (Bridson et al. 2002 §7.4 in spirit) that
+//                             keeps an intersection-free state intersection-free
 //   applyRestitution          after the update: closing contacts bounce with restitution e
 //
 // Pairs within one object that are closer than their contact distance in the rest shape get no
@@ -74,8 +75,10 @@ struct CrossingReport {
   std::size_t clamped = 0;     // particles pulled back inside their broad-phase bounds
   std::size_t crossings = 0;   // crossing pairs the fail-safe found (summed over its rounds)
   std::size_t stopped = 0;     // particle positions it reset
+  std::size_t carried = 0;     // … of which carried by a kinematic body's motion
   std::size_t unresolved = 0;  // pairs still crossing when its round limit was reached
   int rounds = 0;
+  int passes = 0;  // times the pairs of the motion it left were found and checked (solve)
 };
 
 // The distance of every candidate pair at the start of the substep (particles.x) into

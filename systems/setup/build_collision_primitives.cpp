@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <map>
 #include <set>
 
 namespace nucleon {
@@ -73,17 +74,33 @@ void buildCollisionPrimitives(CollisionPrimitives& out, const std::vector<Object
       for (Index v : t) onSurface[v] = 1;
     for (const auto& e : edges) onSurface[e[0]] = onSurface[e[1]] = 1;
 
+    // The first colliding triangle of the object that contains each vertex and edge, by the
+    // primitives' numbering (none when the object's faces do not collide).
+    const Index firstTriangle = static_cast<Index>(out.triangles());
+    std::vector<Index> vertexTriangle(record.particleCount, CollisionPrimitives::kNoTriangle);
+    std::map<std::array<Index, 2>, Index> edgeTriangle;
+    if (m.collideFaces)
+      for (Index t = static_cast<Index>(triangles.size()); t-- > 0;)
+        for (int k = 0; k < 3; ++k) {
+          const Index a = triangles[t][k], b = triangles[t][(k + 1) % 3];
+          vertexTriangle[a] = firstTriangle + t;
+          edgeTriangle[{std::min(a, b), std::max(a, b)}] = firstTriangle + t;
+        }
     if (m.collideVertices)
       for (Index v = 0; v < record.particleCount; ++v) {
         // Interior vertices of a solid never reach another object before its surface does.
         if (record.kind == ObjectKind::Solid && !onSurface[v]) continue;
         addPoint(out, first + v, radius, o, !inEdge[v]);
+        out.pointTriangle.push_back(vertexTriangle[v]);
       }
     if (m.collideEdges)
       for (const auto& e : edges) {
         out.edgeParticles.push_back({first + e[0], first + e[1]});
         out.edgeRadius.push_back(radius);
         out.edgeObject.push_back(o);
+        const auto found = edgeTriangle.find(e);
+        out.edgeTriangle.push_back(found == edgeTriangle.end() ? CollisionPrimitives::kNoTriangle
+                                                               : found->second);
       }
     if (m.collideFaces)
       for (const auto& t : triangles) {
