@@ -394,7 +394,8 @@ TEST(CrossingFailsafe, CarriesAPointWithATurningTriangleRigidly) {
   // A triangle 0.3–0.5 m from the turning axis (y), turned by 20° over the substep; the point
   // starts 4 mm above it and was predicted to fall 2 cm, through it.
   const Vec3 corners[3] = {Vec3(0.3f, 0, -0.1f), Vec3(0.5f, 0, -0.1f), Vec3(0.4f, 0, 0.1f)};
-  const Eigen::Matrix3f turn = Eigen::AngleAxisf(0.349066f, Eigen::Vector3f::UnitY()).matrix();
+  const Eigen::Matrix<Real, 3, 3> turn =
+      Eigen::AngleAxis<Real>(Real(0.349066), Vec3::UnitY()).toRotationMatrix();
   for (int k = 0; k < 3; ++k) {
     particles.x[k] = corners[k];
     particles.p[k] = turn * corners[k];
@@ -445,7 +446,8 @@ TEST(CrossingFailsafe, CarriesATriangleWithATurningColliderVertexRigidly) {
   ParticlePool particles;
   particles.append(6);
   const Vec3 corners[3] = {Vec3(0.4f, 0, 0), Vec3(0.6f, 0, -0.1f), Vec3(0.6f, 0, 0.1f)};
-  const Eigen::Matrix3f turn = Eigen::AngleAxisf(0.349066f, Eigen::Vector3f::UnitY()).matrix();
+  const Eigen::Matrix<Real, 3, 3> turn =
+      Eigen::AngleAxis<Real>(Real(0.349066), Vec3::UnitY()).toRotationMatrix();
   for (int k = 0; k < 3; ++k) {
     particles.x[k] = corners[k];
     particles.p[k] = turn * corners[k];
