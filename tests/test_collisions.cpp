@@ -385,105 +385,110 @@ TEST(PrimitiveContacts, CarriedLowerBoundsKeepEveryContact) {
   }
 }
 
+namespace {
+
+// The fail-safe's world for one crossing: a collider triangle (particles 0–2) at `corners`
+// turned by `turn` about the y axis over the substep, and one point primitive on particle
+// `point` (its triangle, if it has one, in `pointTriangle`) of the object `pointObject`;
+// `moreTriangles` are free triangles of object 1.
+struct FailsafeCase {
+  ParticlePool particles;
+  CollisionPrimitives primitives;
+  Eigen::Matrix<Real, 3, 3> turn =
+      Eigen::AngleAxis<Real>(Real(0.349066), Vec3::UnitY()).toRotationMatrix();  // 20°
+
+  FailsafeCase(const std::array<Vec3, 3>& corners, std::size_t particleCount) {
+    particles.append(particleCount);
+    for (int k = 0; k < 3; ++k) {
+      particles.x[k] = particles.restPosition[k] = corners[k];
+      particles.p[k] = turn * corners[k];
+    }
+    primitives.objectSurface.resize(2);
+    primitives.triangleParticles = {{0, 1, 2}};
+    primitives.triangleRadius = {Real(0.001)};
+    primitives.triangleObject = {0};
+    primitives.smallestRadius = Real(0.001);
+  }
+  void addFree(Index i, const Vec3& start, const Vec3& predicted) {
+    particles.x[i] = particles.restPosition[i] = start;
+    particles.p[i] = predicted;
+    particles.w[i] = 1;
+  }
+  void addPoint(Index particle, std::uint32_t object, Index triangle) {
+    primitives.pointParticle.push_back(particle);
+    primitives.pointRadius.push_back(Real(0.001));
+    primitives.pointObject.push_back(object);
+    primitives.pointIsolated.push_back(1);
+    primitives.pointTriangle.push_back(triangle);
+  }
+  void addFreeTriangle(const std::array<Index, 3>& t) {
+    primitives.triangleParticles.push_back(t);
+    primitives.triangleRadius.push_back(Real(0.001));
+    primitives.triangleObject.push_back(1);
+  }
+  // The pairs of the motion x → p with their bounds, as the solve leaves them, then the
+  // fail-safe; `pairCount` is how many candidate pairs there were.
+  CrossingReport resolve(std::size_t& pairCount) {
+    CandidatePairs pairs;
+    PrimitiveBvh bvh;
+    findCandidatePairs(pairs, bvh, primitives, particles.x, particles.p, particles.w,
+                       kPrimitiveContactMargin);
+    setMotionBounds(pairs, particles.x, particles.p);
+    growParticleBounds(pairs, boundSlack(primitives, kPrimitiveContactMargin));
+    pairCount = pairs.size();
+    PrimitiveContactPool contacts;
+    measureStartDistances(contacts, pairs, primitives, particles);
+    return resolveCrossings(contacts, pairs, primitives, particles);
+  }
+};
+
+}  // namespace
+
 // A free point that the solve left crossing a triangle of a turning collider is carried by the
 // collider's rigid motion: it ends where that motion takes its start, as seen from the triangle
 // (not by the triangle's mean displacement, which for a turn leaves it somewhere else).
 TEST(CrossingFailsafe, CarriesAPointWithATurningTriangleRigidly) {
-  ParticlePool particles;
-  particles.append(4);
-  // A triangle 0.3–0.5 m from the turning axis (y), turned by 20° over the substep; the point
-  // starts 4 mm above it and was predicted to fall 2 cm, through it.
-  const Vec3 corners[3] = {Vec3(0.3f, 0, -0.1f), Vec3(0.5f, 0, -0.1f), Vec3(0.4f, 0, 0.1f)};
-  const Eigen::Matrix<Real, 3, 3> turn =
-      Eigen::AngleAxis<Real>(Real(0.349066), Vec3::UnitY()).toRotationMatrix();
-  for (int k = 0; k < 3; ++k) {
-    particles.x[k] = corners[k];
-    particles.p[k] = turn * corners[k];
-    particles.restPosition[k] = corners[k];
-  }
-  particles.x[3] = Vec3(0.4f, 0.004f, 0);
-  particles.p[3] = particles.x[3] - Vec3(0, 0.02f, 0);
-  particles.w[3] = 1;
-  particles.restPosition[3] = particles.x[3];
-  CollisionPrimitives primitives;
-  primitives.objectSurface.resize(2);
-  primitives.pointParticle = {3};
-  primitives.pointRadius = {Real(0.001)};
-  primitives.pointObject = {1};
-  primitives.pointIsolated = {1};
-  primitives.pointTriangle = {CollisionPrimitives::kNoTriangle};
-  primitives.triangleParticles = {{0, 1, 2}};
-  primitives.triangleRadius = {Real(0.001)};
-  primitives.triangleObject = {0};
-  primitives.smallestRadius = Real(0.001);
-
-  CandidatePairs pairs;
-  PrimitiveBvh bvh;
-  findCandidatePairs(pairs, bvh, primitives, particles.x, particles.p, particles.w,
-                     kPrimitiveContactMargin);
-  setMotionBounds(pairs, particles.x, particles.p);
-  growParticleBounds(pairs, boundSlack(primitives, kPrimitiveContactMargin));
-  ASSERT_EQ(pairs.size(), 1u);
-  PrimitiveContactPool contacts;
-  measureStartDistances(contacts, pairs, primitives, particles);
-  const CrossingReport report = resolveCrossings(contacts, pairs, primitives, particles);
+  // A triangle 0.3–0.5 m from the turning axis; the point starts 4 mm above it and was predicted
+  // to fall 2 cm, through it.
+  const std::array<Vec3, 3> corners = {Vec3(0.3f, 0, -0.1f), Vec3(0.5f, 0, -0.1f),
+                                       Vec3(0.4f, 0, 0.1f)};
+  FailsafeCase world(corners, 4);
+  const Vec3 start(0.4f, 0.004f, 0);
+  world.addFree(3, start, start - Vec3(0, 0.02f, 0));
+  world.addPoint(3, 1, CollisionPrimitives::kNoTriangle);
+  std::size_t pairs = 0;
+  const CrossingReport report = world.resolve(pairs);
+  ASSERT_EQ(pairs, 1u);
 
   EXPECT_EQ(report.carried, 1u);
   EXPECT_EQ(report.unresolved, 0u);
-  const Vec3 expected = turn * particles.x[3];
-  EXPECT_LT((particles.p[3] - expected).norm(), 1e-5f);
+  const Vec3 expected = world.turn * start;
+  const Vec3& end = world.particles.p[3];
+  EXPECT_LT((end - expected).norm(), 1e-5f);
   // Still 4 mm above the turned triangle, on the side it started.
-  EXPECT_NEAR(particles.p[3].y(), 0.004f, 1e-5f);
-  const Vec3 meanShift =
-      (particles.p[0] + particles.p[1] + particles.p[2] - corners[0] - corners[1] - corners[2]) / 3;
-  EXPECT_GT((particles.x[3] + meanShift - expected).norm(), 0.005f);
+  EXPECT_NEAR(end.y(), 0.004f, 1e-5f);
+  Vec3 meanShift = Vec3::Zero();
+  for (int k = 0; k < 3; ++k) meanShift += (world.particles.p[k] - corners[k]) / 3;
+  EXPECT_GT((start + meanShift - expected).norm(), 0.005f);
 }
 
+// The same when the collider's side of the pair is a point: its turn comes from a triangle of the
+// collider that contains it.
 TEST(CrossingFailsafe, CarriesATriangleWithATurningColliderVertexRigidly) {
-  // A collider triangle (particles 0–2, turning 20° about y) whose vertex 0 is also a point
-  // primitive, and a free cloth triangle (3–5) 4 mm below that vertex, predicted to rise 2 cm
-  // through it.
-  ParticlePool particles;
-  particles.append(6);
-  const Vec3 corners[3] = {Vec3(0.4f, 0, 0), Vec3(0.6f, 0, -0.1f), Vec3(0.6f, 0, 0.1f)};
-  const Eigen::Matrix<Real, 3, 3> turn =
-      Eigen::AngleAxis<Real>(Real(0.349066), Vec3::UnitY()).toRotationMatrix();
-  for (int k = 0; k < 3; ++k) {
-    particles.x[k] = corners[k];
-    particles.p[k] = turn * corners[k];
-    particles.restPosition[k] = corners[k];
-  }
+  // The collider's vertex 0 is also a point primitive; a free cloth triangle (3–5) 4 mm below
+  // that vertex was predicted to rise 2 cm through it.
+  FailsafeCase world({Vec3(0.4f, 0, 0), Vec3(0.6f, 0, -0.1f), Vec3(0.6f, 0, 0.1f)}, 6);
   const Vec3 cloth[3] = {Vec3(0.35f, -0.004f, -0.05f), Vec3(0.45f, -0.004f, -0.05f),
                          Vec3(0.4f, -0.004f, 0.05f)};
-  for (int k = 0; k < 3; ++k) {
-    particles.x[3 + k] = cloth[k];
-    particles.p[3 + k] = cloth[k] + Vec3(0, 0.02f, 0);
-    particles.w[3 + k] = 1;
-    particles.restPosition[3 + k] = cloth[k];
-  }
-  CollisionPrimitives primitives;
-  primitives.objectSurface.resize(2);
-  primitives.pointParticle = {0};
-  primitives.pointRadius = {Real(0.001)};
-  primitives.pointObject = {0};
-  primitives.pointIsolated = {0};
-  primitives.pointTriangle = {0};
-  primitives.triangleParticles = {{0, 1, 2}, {3, 4, 5}};
-  primitives.triangleRadius = {Real(0.001), Real(0.001)};
-  primitives.triangleObject = {0, 1};
-  primitives.smallestRadius = Real(0.001);
+  for (Index k = 0; k < 3; ++k) world.addFree(3 + k, cloth[k], cloth[k] + Vec3(0, 0.02f, 0));
+  world.addPoint(0, 0, 0);
+  world.addFreeTriangle({3, 4, 5});
+  std::size_t pairs = 0;
+  const CrossingReport report = world.resolve(pairs);
+  ASSERT_EQ(pairs, 1u);
 
-  CandidatePairs pairs;
-  PrimitiveBvh bvh;
-  findCandidatePairs(pairs, bvh, primitives, particles.x, particles.p, particles.w,
-                     kPrimitiveContactMargin);
-  setMotionBounds(pairs, particles.x, particles.p);
-  growParticleBounds(pairs, boundSlack(primitives, kPrimitiveContactMargin));
-  ASSERT_EQ(pairs.size(), 1u);
-  PrimitiveContactPool contacts;
-  measureStartDistances(contacts, pairs, primitives, particles);
-  const CrossingReport report = resolveCrossings(contacts, pairs, primitives, particles);
   EXPECT_EQ(report.carried, 3u);
   EXPECT_EQ(report.unresolved, 0u);
-  for (int k = 0; k < 3; ++k) EXPECT_LT((particles.p[3 + k] - turn * cloth[k]).norm(), 1e-5f) << k;
+  for (int k = 0; k < 3; ++k)
+    EXPECT_LT((world.particles.p[3 + k] - world.turn * cloth[k]).norm(), 1e-5f) << k;
 }

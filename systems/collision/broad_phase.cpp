@@ -374,9 +374,9 @@ void growParticleBounds(CandidatePairs& pairs, Real slack) {
                     });
 }
 
-bool withinParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p) {
-  if (pairs.boundLower.size() != p.size()) return false;
-  const std::size_t outside = tbb::parallel_reduce(
+std::size_t countOutsideParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p) {
+  if (pairs.boundLower.size() != p.size()) return p.size();
+  return tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, p.size(), kBoxGrain), std::size_t{0},
       [&](const tbb::blocked_range<std::size_t>& r, std::size_t count) {
         for (std::size_t i = r.begin(); i != r.end(); ++i)
@@ -386,7 +386,10 @@ bool withinParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p) 
         return count;
       },
       std::plus<>());
-  return outside == 0;
+}
+
+bool withinParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p) {
+  return pairs.boundLower.size() == p.size() && countOutsideParticleBounds(pairs, p) == 0;
 }
 
 namespace {

@@ -113,8 +113,10 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                           std::span<const Vec3> start, std::span<const Vec3> end,
                           std::span<const Real> w, Real margin, Real slack);
 
-// Whether every particle's position in `p` lies inside its bounds. Particles with a non-finite
-// position are left to the update's counted repair and do not count as outside.
+// How many particles' positions in `p` lie outside their bounds (all of them when there are no
+// bounds for `p`), and whether none does. Particles with a non-finite position are left to the
+// update's counted repair and do not count as outside.
+std::size_t countOutsideParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p);
 bool withinParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p);
 
 // The same pairs, by testing the boxes of every pair of primitives: quadratic, for tests and

@@ -72,13 +72,14 @@ void applyPrimitiveFriction(PrimitiveContactPool& contacts, ParticlePool& partic
                             SolverKind kind);
 
 struct CrossingReport {
-  std::size_t clamped = 0;     // particles pulled back inside their broad-phase bounds
-  std::size_t crossings = 0;   // crossing pairs the fail-safe found (summed over its rounds)
-  std::size_t stopped = 0;     // particle positions it reset
-  std::size_t carried = 0;     // … of which carried by a kinematic body's motion
-  std::size_t unresolved = 0;  // pairs still crossing when its round limit was reached
+  std::size_t clamped = 0;    // particles pulled back inside their broad-phase bounds
+  std::size_t crossings = 0;  // crossing pairs the fail-safe found (summed over its rounds)
+  std::size_t stopped = 0;    // particle positions it reset
+  std::size_t carried = 0;    // … of which carried by a kinematic body's motion
+  // pairs still crossing when its round limit was reached (and, from the solve, particles it
+  // carried out of their bounds for good)
+  std::size_t unresolved = 0;
   int rounds = 0;
-  int passes = 0;  // times the pairs of the motion it left were found and checked (solve)
 };
 
 // The distance of every candidate pair at the start of the substep (particles.x) into
