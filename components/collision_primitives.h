@@ -53,6 +53,15 @@ struct CollisionPrimitives {
   static constexpr Index kNoTriangle = ~Index{0};
   std::vector<Index> pointTriangle;
   std::vector<Index> edgeTriangle;
+  // Which of its boundary features each triangle owns: bit k (k = 0..2) its vertex k, bit 3 + k
+  // its edge from vertex k to vertex k + 1 (mod 3). The lowest-numbered triangle containing a
+  // feature owns it. A point meets the features of a mesh once: a vertex–face pair whose closest
+  // point lies on a vertex or edge that its triangle does not own is the owner's pair again, and
+  // makes no contact (primitive_contacts.h, "One contact per feature"). Empty: every triangle owns
+  // all of its features.
+  std::vector<std::uint8_t> triangleOwnership;
+  // Per object: the CollisionFlags it collides with (empty: all).
+  std::vector<std::uint8_t> objectFlags;
   // Per object: the coefficients its contacts mix (friction, restitution, stickiness).
   std::vector<ObjectSurface> objectSurface;
 
@@ -78,7 +87,7 @@ struct CollisionPrimitives {
   void clear() {
     pointParticle.clear(), pointRadius.clear(), pointObject.clear(), pointIsolated.clear();
     edgeParticles.clear(), edgeRadius.clear(), edgeObject.clear();
-    pointTriangle.clear(), edgeTriangle.clear();
+    pointTriangle.clear(), edgeTriangle.clear(), triangleOwnership.clear(), objectFlags.clear();
     triangleParticles.clear(), triangleRadius.clear(), triangleObject.clear();
     objectSurface.clear(), excludedPairs.clear();
     smallestRadius = 0;

@@ -313,6 +313,45 @@ TEST(CollisionScenes, BulletClothPelletNeverTunnelsUnderMultigrid) {
 // Every pair whose bound says it stays out of reach over the second substep does (the CCD finds
 // no approach within 0.9 of the reach), the second substep passes over many pairs without
 // measuring them, and it makes exactly the contacts of a narrow phase that measures every pair.
+// A point meets each feature of a mesh once. A pellet 0.5 mm beyond its contact distance over the
+// slab's shared diagonal, or over its shared corner, is as close to both triangles (and to the
+// diagonal edge), at the same point: one contact, on that feature, not one per primitive. The lower
+// end of a vertical rope over the diagonal is held by its vertex's contact alone: the edge–edge
+// pair of the rope and the diagonal, closest at that end, makes none.
+TEST(PrimitiveContacts, OneContactPerFeatureOfAMesh) {
+  const Real half = Real(0.5), above = Real(0.0105);  // contact distance 0.01, reach 0.0125
+  struct Case {
+    const char* what;
+    ObjectDef def;
+    std::array<Real, 4> weights;  // of slab particles 0–3 in the one contact
+  };
+  ObjectDef rope = polylineRope(Vec3(0, above, 0), Vec3(0, above + Real(0.05), 0), 1);
+  rope.material.thickness = Real(0.005);
+  const Case cases[] = {
+      {"diagonal", pellet(Vec3(0, above, 0), Vec3::Zero()), {0.5, 0, 0.5, 0}},
+      {"corner", pellet(Vec3(-half, above, -half), Vec3::Zero()), {1, 0, 0, 0}},
+      {"rope end", rope, {0.5, 0, 0.5, 0}},
+  };
+  for (const Case& c : cases) {
+    World world = worldWith(SolverKind::Jacobi, 1);
+    world.setGravity(Vec3::Zero());
+    world.addCollider(slab(half));
+    if (c.def.vertices.size() == 1)
+      world.addParticles(c.def);
+    else
+      world.addRope(c.def);
+    world.step(1.0 / 60);
+    const PrimitiveContactPool& contacts = world.impl().state.primitiveContacts;
+    ASSERT_EQ(contacts.size(), 1u) << c.what;
+    std::array<Real, 4> weights{};
+    for (int k = 0; k < 4; ++k)
+      if (contacts.particles[0][k] < 4)
+        weights[contacts.particles[0][k]] -= contacts.coefficient[0][k];
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(weights[k], c.weights[k], 1e-6) << c.what << " " << k;
+    EXPECT_NEAR(contacts.normal[0].y(), 1, 1e-6) << c.what;
+  }
+}
+
 TEST(PrimitiveContacts, CarriedLowerBoundsKeepEveryContact) {
   World world = foldingClothWorld(true);
   for (int frame = 0; frame < 40; ++frame) world.step(1.0 / 60);

@@ -37,11 +37,13 @@ struct PairView {
   Index id[4] = {0, 0, 0, 0};
   Real radius = 0;  // the two radii summed: the contact distance
   std::uint32_t objectA = 0, objectB = 0;
+  Index first = 0, second = 0;  // the primitives
 };
 
 PairView viewOf(const CollisionPrimitives& prims, PairKind kind, Index a, Index b) {
   PairView v;
   v.kind = kind;
+  v.first = a, v.second = b;
   switch (kind) {
     case PairKind::VertexFace: {
       const auto& t = prims.triangleParticles[b];
@@ -155,9 +157,45 @@ double boxDistance(const PairView& v, const Vec3d* X) {
   return gap.norm();
 }
 
+// Whether the contact of pair `v` with closest-point coefficients `c` is another pair's contact
+// again (primitive_contacts.h, "One contact per feature"): a vertex–face pair whose closest point
+// is a vertex or edge its triangle does not own; an edge–edge pair whose closest point is an end
+// of one edge, or a point–edge pair, where the point's vertex–face pairs with the edge's
+// triangles hold it.
+bool duplicateFeature(const PairView& v, const std::array<double, 4>& c,
+                      const CollisionPrimitives& prims) {
+  if (v.kind == PairKind::VertexFace) {
+    if (v.second >= prims.triangleOwnership.size()) return false;
+    const std::uint8_t owns = prims.triangleOwnership[v.second];
+    const int zeros = (c[1] == 0) + (c[2] == 0) + (c[3] == 0);
+    if (zeros == 2) {
+      const int vertex = c[1] != 0 ? 0 : c[2] != 0 ? 1 : 2;
+      return (owns & (1u << vertex)) == 0;
+    }
+    if (zeros == 1) {
+      // The edge opposite the vertex with weight 0: from vertex k + 1 to k + 2.
+      const int opposite = c[1] == 0 ? 0 : c[2] == 0 ? 1 : 2;
+      return (owns & (1u << (3 + (opposite + 1) % 3))) == 0;
+    }
+    return false;
+  }
+  const auto heldByFaces = [&](std::uint32_t pointObject, Index edge) {
+    return pointObject < prims.objectFlags.size() &&
+           (prims.objectFlags[pointObject] & kCollideVertices) != 0 &&
+           edge < prims.edgeTriangle.size() &&
+           prims.edgeTriangle[edge] != CollisionPrimitives::kNoTriangle;
+  };
+  // An isolated point meets an edge of a mesh through that edge's triangles.
+  if (v.kind == PairKind::VertexEdge) return heldByFaces(v.objectA, v.second);
+  if (v.kind != PairKind::EdgeEdge) return false;
+  const bool endA = c[0] == 0 || c[1] == 0, endB = c[2] == 0 || c[3] == 0;
+  return (endA && heldByFaces(v.objectA, v.second)) || (endB && heldByFaces(v.objectB, v.first));
+}
+
 // Makes the contact of candidate pair `v` if it may come within reach; false if it cannot.
-bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectSurface* surfaces,
-                 double& startDistance, double& lowerBound, PrimitiveContactRecord& out) {
+bool makeContact(const PairView& v, const CollisionPrimitives& prims, const ParticlePool& particles,
+                 const ObjectSurface* surfaces, double& startDistance, double& lowerBound,
+                 PrimitiveContactRecord& out) {
   lowerBound = -kInfinity;
   Vec3d X0[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
   Vec3d X1[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
@@ -226,6 +264,7 @@ bool makeContact(const PairView& v, const ParticlePool& particles, const ObjectS
     if (v.kind == PairKind::VertexFace) n = (X[2] - X[1]).cross(X[3] - X[1]);
     if (!(n.norm() > 0)) n = Vec3d(0, 1, 0);
   }
+  if (duplicateFeature(v, c, prims)) return false;
   n.normalize();
 
   const ObjectSurface& a = surfaces[v.objectA];
@@ -577,7 +616,7 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
                 continue;
               }
             }
-            if (makeContact(v, particles, surfaces, contacts.startDistance[i],
+            if (makeContact(v, primitives, particles, surfaces, contacts.startDistance[i],
                             contacts.lowerBound[i], record))
               made.push_back(record);
           }

@@ -19,6 +19,17 @@
 // Pairs within one object that are closer than their contact distance in the rest shape get no
 // contact (the mesh's own constraints hold them), but they are still checked for crossings.
 //
+// One contact per feature. Two primitives of a mesh that share a vertex or an edge are equally
+// close to a point near it, at the same point: a pellet over a cloth's edge is within reach of
+// both triangles, of the edge, and of the edges around it by their ends. One constraint is kept
+// per feature (Bridson et al. 2002 test every pair; a duplicate only weighs the same push twice
+// in the Jacobi average and costs a projection): a vertex–face pair makes a contact only where
+// its closest point lies inside the face or on a vertex or edge that the face owns
+// (CollisionPrimitives::triangleOwnership), and an edge–edge pair closest at an end of an edge,
+// or a point–edge pair, none where the point's vertex–face pairs with the edge's triangles carry
+// it. On cloth_self this cut the contacts per substep from 29.8 k to 7.4 k, on
+// cloth_drop_sphere from 202 k to 48 k, with fewer crossings left to the fail-safe on both.
+//
 // Lower bounds. Most candidate pairs never come near each other (neighbours in a sheet, layers
 // of a pile two apart), and measuring them again every substep was most of the narrow phase.
 // The narrow phase keeps, per pair, a lower bound L on the pair's distance over the predicted

@@ -41,6 +41,9 @@ void buildCollisionPrimitives(CollisionPrimitives& out, const std::vector<Object
     const Index first = record.firstParticle;
     const Real radius = m.thickness;
     out.objectSurface.push_back({m.friction, m.staticFriction, m.restitution, m.stickiness});
+    out.objectFlags.push_back(static_cast<std::uint8_t>((m.collideVertices ? kCollideVertices : 0) |
+                                                        (m.collideEdges ? kCollideEdges : 0) |
+                                                        (m.collideFaces ? kCollideFaces : 0)));
     bool meetsAnything = false;
     for (std::uint32_t other = 0; other < objects.size() && !meetsAnything; ++other)
       meetsAnything = canCollide(o, other);
@@ -103,8 +106,18 @@ void buildCollisionPrimitives(CollisionPrimitives& out, const std::vector<Object
                                                                : found->second);
       }
     if (m.collideFaces)
-      for (const auto& t : triangles) {
-        out.triangleParticles.push_back({first + t[0], first + t[1], first + t[2]});
+      for (Index t = 0; t < static_cast<Index>(triangles.size()); ++t) {
+        const auto& vertices = triangles[t];
+        std::uint8_t owns = 0;
+        for (int k = 0; k < 3; ++k) {
+          const Index a = vertices[k], b = vertices[(k + 1) % 3];
+          if (vertexTriangle[a] == firstTriangle + t) owns |= std::uint8_t(1u << k);
+          if (edgeTriangle.at({std::min(a, b), std::max(a, b)}) == firstTriangle + t)
+            owns |= std::uint8_t(1u << (3 + k));
+        }
+        out.triangleOwnership.push_back(owns);
+        out.triangleParticles.push_back(
+            {first + vertices[0], first + vertices[1], first + vertices[2]});
         out.triangleRadius.push_back(radius);
         out.triangleObject.push_back(o);
       }
