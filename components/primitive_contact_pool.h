@@ -90,10 +90,11 @@ struct PrimitiveContactPool {
   std::vector<double> formerLowerBound;  // scratch: the bounds before the set changed
   std::uint64_t boundVersion = 0;        // CandidatePairs::version; 0: none
   // per particle, the predicted position the bounds were taken over, and scratch: how far each
-  // particle strays from it and moves apart from the mean motion.
+  // particle's final position strays from it (the fail-safe), and how far its start strays from
+  // it plus how far its motion strays from the mean motion (the narrow phase).
   std::vector<Vec3> predicted;
   std::vector<double> deviation;
-  std::vector<double> relativeMotion;
+  std::vector<double> stray;
   std::vector<Vec3d> chunkMotion;        // scratch: the motions summed per fixed chunk
   std::vector<std::size_t> chunkMovers;  // … and how many particles each sum has
 

@@ -576,17 +576,16 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
   }
   if (carry) {
     // Per particle: how far the substep's start strays from the position the bounds were taken
-    // at, and how far its motion strays from the mean motion.
+    // at, plus how far its motion strays from the mean motion (one sum, so that a pair reads one
+    // value per particle: a point of a side moves by at most the largest sum of that side).
     const Vec3d mean = meanMotion(particles, contacts.chunkMotion, contacts.chunkMovers);
-    contacts.deviation.resize(particleCount);
-    contacts.relativeMotion.resize(particleCount);
+    contacts.stray.resize(particleCount);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particleCount, kParticleGrain),
                       [&](const tbb::blocked_range<std::size_t>& r) {
                         for (std::size_t i = r.begin(); i != r.end(); ++i) {
                           const Vec3d x = particles.x[i].cast<double>();
-                          contacts.deviation[i] = (x - contacts.predicted[i].cast<double>()).norm();
-                          contacts.relativeMotion[i] =
-                              (particles.p[i].cast<double>() - x - mean).norm();
+                          contacts.stray[i] = (x - contacts.predicted[i].cast<double>()).norm() +
+                                              (particles.p[i].cast<double>() - x - mean).norm();
                         }
                       });
   }
@@ -606,12 +605,11 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
             const PairView v =
                 viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
             if (carry && contacts.lowerBound[i] > -kInfinity) {
-              const auto stray = sideMaxima(v, contacts.deviation);
-              const auto spread = sideMaxima(v, contacts.relativeMotion);
-              const double start = contacts.lowerBound[i] - stray[0] - stray[1];
-              const double over = start - spread[0] - spread[1];
+              // Also a lower bound on the distance at the start of the substep.
+              const auto stray = sideMaxima(v, contacts.stray);
+              const double over = contacts.lowerBound[i] - stray[0] - stray[1];
               if (over > double(v.radius) + double(kPrimitiveContactMargin) + kBoundTolerance) {
-                contacts.startDistance[i] = start;
+                contacts.startDistance[i] = over;
                 contacts.lowerBound[i] = over;
                 continue;
               }
