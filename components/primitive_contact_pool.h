@@ -75,12 +75,28 @@ struct PrimitiveContactPool {
   // re-tests only the pairs the one before changed.
   std::vector<int> failsafeRound;
   // Per particle: what the fail-safe holds it to (primitive_contacts.h, resolveCrossings): its
-  // precedence (0: its own predicted motion, 1: stopped where the substep started, higher: carried
+  // precedence (0: its own predicted motion, 1: its impact zone's rigid motion, higher: carried
   // by the rigid motion of a kinematic body, a lower object and triangle first), and, when
   // carried, that motion x → R x + t.
   std::vector<std::uint64_t> carryPrecedence;
   std::vector<Mat3d> carryRotation;
   std::vector<Vec3d> carryTranslation;
+  // The fail-safe's impact zones (precedence 1): per particle, its parent in the zone forest
+  // (kNoZone: in none), the slot of its zone in `zones` when it is a zone's root, and the position
+  // the solve gave it (the motion whose momentum its zone keeps); per zone, its sums.
+  static constexpr Index kNoZone = ~Index{0};
+  struct ImpactZone {
+    double mass = 0;
+    Vec3d center = Vec3d::Zero();   // centre of mass at the start of the substep
+    Vec3d motion = Vec3d::Zero();   // mean motion over the substep (linear momentum / mass)
+    Vec3d angular = Vec3d::Zero();  // angular momentum of the motion about the centre (× h)
+    Mat3d inertia = Mat3d::Zero();  // inertia tensor about the centre
+    Mat3d rotation = Mat3d::Identity();
+  };
+  std::vector<Index> zoneParent;
+  std::vector<Index> zoneSlot;
+  std::vector<Vec3> failsafeFrom;
+  std::vector<ImpactZone> zones;
 
   // What the narrow phase learned of each pair, kept from substep to substep so that a pair far
   // from contact is not measured again (primitive_contacts.h, "Lower bounds"):

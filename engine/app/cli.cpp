@@ -328,6 +328,8 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
         {"crossings_stopped", c.crossings},
         {"stopped_particles", c.stoppedParticles},
         {"carried_particles", c.carriedParticles},
+        {"impact_zones", c.impactZones},
+        {"stopped_impact_zones", c.stoppedImpactZones},
         {"unresolved_pairs", c.unresolvedPairs},
         {"first_crossing_step",
          c.firstCrossingStep > 0 ? nlohmann::json(c.firstCrossingStep) : nlohmann::json()}};

@@ -169,6 +169,8 @@ void StepGraph::runStage(int stage) {
       report.crossings += crossing.crossings;
       report.stoppedParticles += crossing.stopped;
       report.carriedParticles += crossing.carried;
+      report.impactZones += crossing.zones;
+      report.stoppedImpactZones += crossing.stoppedZones;
       report.unresolvedPairs += crossing.unresolved;
       if (crossing.crossings > 0 && report.firstCrossingStep == 0)
         report.firstCrossingStep = c.step;

@@ -55,12 +55,17 @@ struct CollisionReport {
   // Collider contact pools refilled after the multigrid cascade had carried a particle without
   // a contact within a collider's reach (particle_contacts.h, detectContacts).
   std::uint64_t colliderRedetections = 0;
-  std::uint64_t candidatePairs = 0;     // broad-phase pairs, summed over substeps
-  std::uint64_t contacts = 0;           // primitive contacts made, summed over substeps
-  std::uint64_t clampedParticles = 0;   // particles held within their broad-phase bounds
-  std::uint64_t crossings = 0;          // crossing pairs the fail-safe stopped
-  std::uint64_t stoppedParticles = 0;   // particle positions the fail-safe reset
-  std::uint64_t carriedParticles = 0;   // … of them carried by a kinematic body's rigid motion
+  std::uint64_t candidatePairs = 0;    // broad-phase pairs, summed over substeps
+  std::uint64_t contacts = 0;          // primitive contacts made, summed over substeps
+  std::uint64_t clampedParticles = 0;  // particles held within their broad-phase bounds
+  std::uint64_t crossings = 0;         // crossing pairs the fail-safe stopped
+  std::uint64_t stoppedParticles = 0;  // particle positions the fail-safe reset
+  std::uint64_t carriedParticles = 0;  // … of them carried by a kinematic body's rigid motion
+  // Impact zones the fail-safe moved as rigid bodies keeping their particles' momentum (summed
+  // over its passes and substeps; the rest of the reset positions are theirs).
+  std::uint64_t impactZones = 0;
+  // … of them stopped where the substep began, their momentum lost, to end the fail-safe's rounds.
+  std::uint64_t stoppedImpactZones = 0;
   std::uint64_t unresolvedPairs = 0;    // pairs still crossing at the fail-safe's round limit
   std::uint64_t firstCrossingStep = 0;  // 1-based step of the first fail-safe action; 0 if none
 };

@@ -4,6 +4,9 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <numbers>
+
+#include <Eigen/Eigenvalues>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -23,6 +26,8 @@ constexpr std::size_t kContactChunk = 1024;
 // Rounds of the fail-safe before it gives up and reports the pairs left (each round stops at
 // least one more particle, so this bounds the work, not the outcome of realistic scenes).
 constexpr int kMaxFailsafeRounds = 64;
+// Rounds in which the impact zones keep their momentum; later ones stop them.
+constexpr int kMomentumRounds = kMaxFailsafeRounds / 2;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 // Room (m) a carried lower bound must leave before a pair is passed over: far above the rounding
 // of the double arithmetic that carries it, far below any contact distance.
@@ -220,18 +225,6 @@ bool makeContact(const PairView& v, const CollisionPrimitives& prims, const Part
   if (!std::isfinite(startDistance) || !std::isfinite(motion)) return false;
   lowerBound = startDistance - motion;
   if (lowerBound > reach) return false;
-  if (v.objectA == v.objectB) {
-    // Held apart by the mesh itself: no contact between primitives of one object that are closer
-    // than their contact distance in the rest shape (they would push the mesh away from its rest
-    // shape); the fail-safe still checks them for crossings. (Dropping also the pairs within
-    // reach, contact distance + margin, in the rest shape cut contacts on a single cloth layer
-    // but let folded layers of cloth_self press through to the ground: measured worse.)
-    Vec3d R[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
-    for (int k = 0; k < v.count; ++k) R[k] = particles.restPosition[v.id[k]].cast<double>();
-    if (boxDistance(v, R) < double(v.radius) &&
-        combine(closestCoefficients(v.kind, R), R, v.count).norm() < double(v.radius))
-      return false;
-  }
   // Along the predicted motion the distance is at least max(d0 − t L, d1 − (1 − t) L), whose
   // smallest value over t is (d0 + d1 − L) / 2.
   const auto c1 = closestCoefficients(v.kind, X1);
@@ -246,6 +239,23 @@ bool makeContact(const PairView& v, const CollisionPrimitives& prims, const Part
   // contact distance if it does during the predicted motion, else the predicted end.
   // CCD only where the bound above leaves room to come within the contact distance.
   const bool mayImpact = (startDistance + endDistance - motion) / 2 <= double(v.radius);
+  // Without CCD the contact is linearised at the predicted end, with the end's closest points
+  // unless they touch: a duplicate is known before anything more is computed.
+  if (!mayImpact && endDistance > 1e-9 * std::max(1.0, X1[0].cwiseAbs().maxCoeff()) &&
+      duplicateFeature(v, c1, prims))
+    return false;
+  if (v.objectA == v.objectB) {
+    // Held apart by the mesh itself: no contact between primitives of one object that are closer
+    // than their contact distance in the rest shape (they would push the mesh away from its rest
+    // shape); the fail-safe still checks them for crossings. (Dropping also the pairs within
+    // reach, contact distance + margin, in the rest shape cut contacts on a single cloth layer
+    // but let folded layers of cloth_self press through to the ground: measured worse.)
+    Vec3d R[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
+    for (int k = 0; k < v.count; ++k) R[k] = particles.restPosition[v.id[k]].cast<double>();
+    if (boxDistance(v, R) < double(v.radius) &&
+        combine(closestCoefficients(v.kind, R), R, v.count).norm() < double(v.radius))
+      return false;
+  }
   const CcdResult impact =
       mayImpact ? pairCcd(v.kind, X0, X1, double(v.radius)) : CcdResult{false, 1.0};
   const double t = impact.hit ? std::clamp(impact.toi, 0.0, 1.0) : 1.0;
@@ -508,7 +518,7 @@ RigidMotion kinematicMotion(const Index* ids, int count, const ParticlePool& par
 // is kinematic throughout (a point or an edge alone leaves the turn about itself unknown), and
 // the precedence of that motion: a lower object, then a lower triangle (or particle), first.
 struct Carry {
-  std::uint64_t precedence = 1;  // 1: stopped
+  std::uint64_t precedence = 1;  // 1: an impact zone
   RigidMotion motion;
 };
 
@@ -540,6 +550,103 @@ Carry kinematicCarry(const PairView& v, bool firstSide, PairKind kind, Index pri
   carry.precedence = object << 32 | (std::numeric_limits<std::uint32_t>::max() - lowest);
   carry.motion = kinematicMotion(v.id + begin, end - begin, particles);
   return carry;
+}
+
+// The impact zone of particle i (union–find with path halving); i must be in one.
+Index zoneOf(std::vector<Index>& parent, Index i) {
+  while (parent[i] != i) {
+    parent[i] = parent[parent[i]];
+    i = parent[i];
+  }
+  return i;
+}
+
+// Puts particle i in the zone `root` (kNoZone: a zone of its own); returns the joined zone's root.
+// The lower root survives a merge, so that the zones do not depend on anything but pair order.
+Index joinZone(std::vector<Index>& parent, Index i, Index root) {
+  if (parent[i] == PrimitiveContactPool::kNoZone) parent[i] = i;
+  const Index own = zoneOf(parent, i);
+  if (root == PrimitiveContactPool::kNoZone || root == own) return own;
+  const Index low = std::min(own, root), high = std::max(own, root);
+  parent[high] = low;
+  return low;
+}
+
+// Moves every impact zone (the particles at precedence 1) as one rigid body that keeps the linear
+// and angular momentum of its particles' solved motion x → `from` (Bridson, Fedkiw and Anderson
+// 2002 §7.4; Harmon et al. 2008): centre of mass c and mean motion ū; ω = I⁻¹ L over the
+// substep, L = Σ m r × (u − ū) and I = Σ m (|r|² 1 − r rᵀ) with r = x − c, u = from − x; each
+// particle goes to c + ū + R(ω)(x − c). A rigid motion of the crossing-free start keeps the zone's
+// own pairs uncrossed (the motion between is an invertible affine map for turns below π/2; a
+// larger turn, far beyond any substep's, is left out and the zone only translates). Sums in
+// particle order, so the result does not depend on the thread count. With `keepMomentum` false
+// the zones stop where the substep began instead (the old fail-safe: it ends the rounds sooner,
+// and loses the zones' momentum). Returns the zones.
+std::size_t moveImpactZones(PrimitiveContactPool& contacts, ParticlePool& particles, int round,
+                            bool keepMomentum, CrossingReport& report) {
+  const std::size_t n = particles.size();
+  std::vector<PrimitiveContactPool::ImpactZone>& zones = contacts.zones;
+  zones.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (contacts.carryPrecedence[i] != 1) continue;
+    const Index root = zoneOf(contacts.zoneParent, static_cast<Index>(i));
+    if (root == i) {
+      contacts.zoneSlot[i] = static_cast<Index>(zones.size());
+      zones.emplace_back();
+    }
+  }
+  const auto zoneOfParticle = [&](std::size_t i) -> PrimitiveContactPool::ImpactZone& {
+    return zones[contacts.zoneSlot[zoneOf(contacts.zoneParent, static_cast<Index>(i))]];
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    if (contacts.carryPrecedence[i] != 1) continue;
+    PrimitiveContactPool::ImpactZone& zone = zoneOfParticle(i);
+    const double m = 1.0 / double(particles.w[i]);
+    const Vec3d x = particles.x[i].cast<double>();
+    zone.mass += m;
+    zone.center += m * x;
+    zone.motion += m * (contacts.failsafeFrom[i].cast<double>() - x);
+  }
+  for (PrimitiveContactPool::ImpactZone& zone : zones) {
+    zone.center /= zone.mass, zone.motion /= zone.mass;
+    if (!keepMomentum) zone.motion.setZero();
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (contacts.carryPrecedence[i] != 1) continue;
+    PrimitiveContactPool::ImpactZone& zone = zoneOfParticle(i);
+    const double m = 1.0 / double(particles.w[i]);
+    const Vec3d x = particles.x[i].cast<double>();
+    const Vec3d r = x - zone.center;
+    zone.angular += m * r.cross(contacts.failsafeFrom[i].cast<double>() - x - zone.motion);
+    zone.inertia += m * (r.squaredNorm() * Mat3d::Identity() - r * r.transpose());
+  }
+  for (PrimitiveContactPool::ImpactZone& zone : zones) {
+    // A pseudo-inverse: a zone on a line (two particles, say) has no inertia about it, and no
+    // angular momentum about it either.
+    const Eigen::SelfAdjointEigenSolver<Mat3d> eigen(zone.inertia);
+    const Vec3d lambda = eigen.eigenvalues();
+    const double floor = 1e-12 * std::max(lambda.cwiseAbs().maxCoeff(), 1e-300);
+    Vec3d projected = eigen.eigenvectors().transpose() * zone.angular;
+    for (int k = 0; k < 3; ++k) projected[k] = lambda[k] > floor ? projected[k] / lambda[k] : 0.0;
+    const Vec3d omega = eigen.eigenvectors() * projected;
+    const double angle = omega.norm();
+    zone.rotation = Mat3d::Identity();
+    if (keepMomentum && angle > 0 && angle < std::numbers::pi / 2)
+      zone.rotation = Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix();
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (contacts.carryPrecedence[i] != 1) continue;
+    const PrimitiveContactPool::ImpactZone& zone = zoneOfParticle(i);
+    const Vec3 target = Vec3(
+        (zone.center + zone.motion + zone.rotation * (particles.x[i].cast<double>() - zone.center))
+            .cast<Real>());
+    if (particles.p[i] != target) {
+      particles.p[i] = target;
+      contacts.failsafeRound[i] = round + 1;
+      ++report.stopped;
+    }
+  }
+  return zones.size();
 }
 
 }  // namespace
@@ -771,6 +878,9 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
   contacts.carryPrecedence.assign(particles.size(), 0);
   contacts.carryRotation.resize(particles.size());
   contacts.carryTranslation.resize(particles.size());
+  contacts.zoneParent.assign(particles.size(), PrimitiveContactPool::kNoZone);
+  contacts.zoneSlot.resize(particles.size());
+  contacts.failsafeFrom.assign(particles.p.begin(), particles.p.end());
   for (int round = 0; round < kMaxFailsafeRounds; ++round) {
     // Pairs whose start distance the final motion could have used up, tested by CCD at zero
     // thickness: does any point of one reach the other? After the first round only the pairs
@@ -816,16 +926,17 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
       bool freeA = false, freeB = false;
       for (int k = 0; k < v.count; ++k)
         (k < v.firstSide ? freeA : freeB) |= particles.w[v.id[k]] > 0;
-      // What the pair's free particles are held to: stopped where the substep started, or carried
-      // by the rigid motion of a side with no free particle (a collider, a pinned group), or by
-      // what a particle of the pair is held to already where that ranks higher. Holding every
-      // particle of a crossing pair to one rigid motion keeps the pair as it was at the start,
-      // which was crossing-free. A particle's precedence only grows (stopped over moving,
-      // carried over stopped, a lower body and triangle over a higher one), so the rounds end:
-      // a patch held to a body moves with it, and a squeeze between two bodies is reported as
-      // unresolved rather than flipped back and forth. (Letting the latest crossing decide, as
-      // the mean-translation carry before it did, flipped particles between stopped and carried
-      // until the round limit on a box turning under a draped cloth.)
+      // What the pair's free particles are held to: one impact zone, a rigid body that keeps
+      // their momentum (moveImpactZones), or the rigid motion of a side with no free particle (a
+      // collider, a pinned group), or what a particle of the pair is held to already where that
+      // ranks higher. Holding every particle of a crossing pair to one rigid motion keeps the
+      // pair as it was at the start, which was crossing-free. A particle's precedence only grows
+      // (a zone over its own motion, carried over a zone, a lower body and triangle over a higher
+      // one) and zones only merge, so the rounds end: a patch held to a body moves with it, and
+      // a squeeze between two bodies is reported as unresolved rather than flipped back and
+      // forth. (Letting the latest crossing decide, as the mean-translation carry before it did,
+      // flipped particles between stopped and carried until the round limit on a box turning
+      // under a draped cloth.)
       Carry held;
       if (freeA != freeB)
         held = kinematicCarry(v, !freeA, candidates.kind[i],
@@ -838,25 +949,40 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
           held.motion = RigidMotion{contacts.carryRotation[id], contacts.carryTranslation[id]};
         }
       }
+      if (held.precedence == 1) {
+        // Their zones merge; the zones move after the round.
+        Index root = PrimitiveContactPool::kNoZone;
+        for (int k = 0; k < v.count; ++k) {
+          const Index id = v.id[k];
+          if (particles.w[id] == 0) continue;
+          root = joinZone(contacts.zoneParent, id, root);
+          contacts.carryPrecedence[id] = 1;
+        }
+        continue;
+      }
       for (int k = 0; k < v.count; ++k) {
         const Index id = v.id[k];
         if (particles.w[id] == 0 || contacts.carryPrecedence[id] >= held.precedence) continue;
         contacts.carryPrecedence[id] = held.precedence;
         contacts.carryRotation[id] = held.motion.rotation;
         contacts.carryTranslation[id] = held.motion.translation;
-        const Vec3 target = held.precedence == 1
-                                ? particles.x[id]
-                                : Vec3((held.motion.rotation * particles.x[id].cast<double>() +
-                                        held.motion.translation)
-                                           .cast<Real>());
+        const Vec3 target =
+            Vec3((held.motion.rotation * particles.x[id].cast<double>() + held.motion.translation)
+                     .cast<Real>());
         if (particles.p[id] != target) {
           particles.p[id] = target;
           contacts.failsafeRound[id] = round + 1;
           ++report.stopped;
-          if (held.precedence > 1) ++report.carried;
+          ++report.carried;
         }
       }
     }
+    // Merging zones until none crosses another ends (Harmon et al. 2008), but a zone's new motion
+    // can meet the next zone round after round: past half the round limit the zones stop where
+    // the substep began, which ends it sooner (counted).
+    const bool keepMomentum = round < kMomentumRounds;
+    report.zones = moveImpactZones(contacts, particles, round, keepMomentum, report);
+    if (!keepMomentum) report.stoppedZones = report.zones;
     report.crossings += crossings;
     report.rounds = round + 1;
     if (crossings == 0) return report;

@@ -9,11 +9,13 @@
 //                             tangential motion, bounded by μ λ_n (Macklin et al. 2014 §6)
 //   resolveCrossings          end of the solve: the final motion x → p of every candidate pair
 //                             is checked by CCD at zero thickness; the free particles of a
-//                             crossing pair are held to one rigid motion: stopped where the
-//                             substep started, or carried by the rigid motion of a kinematic side
-//                             (a turning collider, a pinned ring), until none is left: a bounded
-//                             impact-zone fail-safe (Bridson et al. 2002 §7.4 in spirit) that
-//                             keeps an intersection-free state intersection-free
+//                             crossing pair are held to one rigid motion: that of their impact
+//                             zone, merged from overlapping crossings, which keeps the linear
+//                             and angular momentum of its particles (Bridson, Fedkiw and
+//                             Anderson 2002 §7.4; Harmon et al. 2008), or the rigid motion of a
+//                             kinematic side (a turning collider, a pinned ring), until none is
+//                             left: a bounded fail-safe that keeps an intersection-free state
+//                             intersection-free
 //   applyRestitution          after the update: closing contacts bounce with restitution e
 //
 // Pairs within one object that are closer than their contact distance in the rest shape get no
@@ -83,10 +85,12 @@ void applyPrimitiveFriction(PrimitiveContactPool& contacts, ParticlePool& partic
                             SolverKind kind);
 
 struct CrossingReport {
-  std::size_t clamped = 0;    // particles pulled back inside their broad-phase bounds
-  std::size_t crossings = 0;  // crossing pairs the fail-safe found (summed over its rounds)
-  std::size_t stopped = 0;    // particle positions it reset
-  std::size_t carried = 0;    // … of which carried by a kinematic body's motion
+  std::size_t clamped = 0;       // particles pulled back inside their broad-phase bounds
+  std::size_t crossings = 0;     // crossing pairs the fail-safe found (summed over its rounds)
+  std::size_t stopped = 0;       // particle positions it reset
+  std::size_t carried = 0;       // … of which carried by a kinematic body's motion
+  std::size_t zones = 0;         // impact zones it moved as rigid bodies
+  std::size_t stoppedZones = 0;  // … of them stopped, momentum lost, to end the rounds
   // pairs still crossing when its round limit was reached (and, from the solve, particles it
   // carried out of their bounds for good)
   std::size_t unresolved = 0;

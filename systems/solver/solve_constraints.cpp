@@ -116,6 +116,8 @@ void finishPrimitiveContacts(SolvePools& pools, SolverKind kind, SolveReport& re
     report.crossing.crossings += crossing.crossings;
     report.crossing.stopped += crossing.stopped;
     report.crossing.carried += crossing.carried;
+    report.crossing.zones += crossing.zones;
+    report.crossing.stoppedZones += crossing.stoppedZones;
     report.crossing.rounds += crossing.rounds;
     // A later pass checks the earlier one's leftovers again: only the last one's count.
     report.crossing.unresolved = crossing.unresolved;
