@@ -881,6 +881,7 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
   contacts.zoneParent.assign(particles.size(), PrimitiveContactPool::kNoZone);
   contacts.zoneSlot.resize(particles.size());
   contacts.failsafeFrom.assign(particles.p.begin(), particles.p.end());
+  bool anyZone = false;  // whether a zone was formed: else there is nothing to move
   for (int round = 0; round < kMaxFailsafeRounds; ++round) {
     // Pairs whose start distance the final motion could have used up, tested by CCD at zero
     // thickness: does any point of one reach the other? After the first round only the pairs
@@ -957,6 +958,7 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
           if (particles.w[id] == 0) continue;
           root = joinZone(contacts.zoneParent, id, root);
           contacts.carryPrecedence[id] = 1;
+          anyZone = true;
         }
         continue;
       }
@@ -981,7 +983,7 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
     // can meet the next zone round after round: past half the round limit the zones stop where
     // the substep began, which ends it sooner (counted).
     const bool keepMomentum = round < kMomentumRounds;
-    report.zones = moveImpactZones(contacts, particles, round, keepMomentum, report);
+    if (anyZone) report.zones = moveImpactZones(contacts, particles, round, keepMomentum, report);
     if (!keepMomentum) report.stoppedZones = report.zones;
     report.crossings += crossings;
     report.rounds = round + 1;
