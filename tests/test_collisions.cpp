@@ -550,6 +550,29 @@ TEST(CrossingFailsafe, CarriesAPointWithATurningTriangleRigidly) {
   EXPECT_GT((start + meanShift - expected).norm(), 0.005f);
 }
 
+// A zone whose momentum would turn it by a quarter or more within one substep (a point driven
+// through a triangle 1.5 m per substep against it, 5 cm off its centre) only translates, and the
+// turn left out is counted: the pair still ends uncrossed.
+TEST(CrossingFailsafe, ImpactZoneTurnsOfAQuarterAreLeftOutAndCounted) {
+  FailsafeCase c({Vec3(10, 0, 0), Vec3(11, 0, 0), Vec3(10, 0, 1)}, 7);  // a collider far off
+  c.addFree(3, Vec3(Real(-0.1), 0, Real(-0.1)), Vec3(Real(-0.1), Real(0.5), Real(-0.1)));
+  c.addFree(4, Vec3(Real(0.1), 0, Real(-0.1)), Vec3(Real(0.1), Real(0.5), Real(-0.1)));
+  c.addFree(5, Vec3(0, 0, Real(0.1)), Vec3(0, Real(0.5), Real(0.1)));
+  c.addFreeTriangle({3, 4, 5});
+  c.addFree(6, Vec3(Real(0.05), Real(0.01), 0), Vec3(Real(0.05), Real(-1), 0));
+  c.addPoint(6, 1, CollisionPrimitives::kNoTriangle);
+  std::size_t pairs = 0;
+  const CrossingReport report = c.resolve(pairs);
+  EXPECT_GT(report.zones, 0u);
+  EXPECT_GT(report.turnsDropped, 0u);
+  EXPECT_EQ(report.unresolved, 0u);
+  // Translated as one, not turned: the triangle stays level and the point keeps its height over it.
+  const ParticlePool& p = c.particles;
+  const Vec3 normal = (p.p[4] - p.p[3]).cross(p.p[5] - p.p[3]).normalized();
+  EXPECT_NEAR(std::abs(normal.y()), 1, 1e-6);
+  EXPECT_NEAR(std::abs(normal.dot(p.p[6] - p.p[3])), 0.01, 1e-5);
+}
+
 // The same when the collider's side of the pair is a point: its turn comes from a triangle of the
 // collider that contains it.
 TEST(CrossingFailsafe, CarriesATriangleWithATurningColliderVertexRigidly) {

@@ -171,6 +171,7 @@ void StepGraph::runStage(int stage) {
       report.carriedParticles += crossing.carried;
       report.impactZones += crossing.zones;
       report.stoppedImpactZones += crossing.stoppedZones;
+      report.impactZoneTurnsDropped += crossing.turnsDropped;
       report.unresolvedPairs += crossing.unresolved;
       if (crossing.crossings > 0 && report.firstCrossingStep == 0)
         report.firstCrossingStep = c.step;

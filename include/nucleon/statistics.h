@@ -66,6 +66,8 @@ struct CollisionReport {
   std::uint64_t impactZones = 0;
   // … of them stopped where the substep began, their momentum lost, to end the fail-safe's rounds.
   std::uint64_t stoppedImpactZones = 0;
+  // … and turns of a quarter or more in one substep the zones left out, translating only.
+  std::uint64_t impactZoneTurnsDropped = 0;
   std::uint64_t unresolvedPairs = 0;    // pairs still crossing at the fail-safe's round limit
   std::uint64_t firstCrossingStep = 0;  // 1-based step of the first fail-safe action; 0 if none
 };

@@ -631,8 +631,11 @@ std::size_t moveImpactZones(PrimitiveContactPool& contacts, ParticlePool& partic
     const Vec3d omega = eigen.eigenvectors() * projected;
     const double angle = omega.norm();
     zone.rotation = Mat3d::Identity();
-    if (keepMomentum && angle > 0 && angle < std::numbers::pi / 2)
+    if (!keepMomentum || !(angle > 0)) continue;
+    if (angle < std::numbers::pi / 2)
       zone.rotation = Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix();
+    else
+      ++report.turnsDropped;
   }
   for (std::size_t i = 0; i < n; ++i) {
     if (contacts.carryPrecedence[i] != 1) continue;

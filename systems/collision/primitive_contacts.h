@@ -91,6 +91,8 @@ struct CrossingReport {
   std::size_t carried = 0;       // … of which carried by a kinematic body's motion
   std::size_t zones = 0;         // impact zones it moved as rigid bodies
   std::size_t stoppedZones = 0;  // … of them stopped, momentum lost, to end the rounds
+  // zone turns of a quarter or more in one substep, left out (the zone only translated)
+  std::size_t turnsDropped = 0;
   // pairs still crossing when its round limit was reached (and, from the solve, particles it
   // carried out of their bounds for good)
   std::size_t unresolved = 0;

@@ -118,6 +118,7 @@ void finishPrimitiveContacts(SolvePools& pools, SolverKind kind, SolveReport& re
     report.crossing.carried += crossing.carried;
     report.crossing.zones += crossing.zones;
     report.crossing.stoppedZones += crossing.stoppedZones;
+    report.crossing.turnsDropped += crossing.turnsDropped;
     report.crossing.rounds += crossing.rounds;
     // A later pass checks the earlier one's leftovers again: only the last one's count.
     report.crossing.unresolved = crossing.unresolved;
