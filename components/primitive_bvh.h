@@ -95,6 +95,7 @@ class PrimitiveBvh {
   // Pairs found by each thread of the arena (by its index in it), and last a list shared by
   // threads outside the arena, as first << 32 | second, before they are put in order.
   std::vector<std::vector<std::uint64_t>> threadPairs;
+  std::vector<std::vector<std::uint64_t>> threadStaging;  // per arena thread: pairs not yet listed
   // Incremental re-detection: which particles grew their motion box, the primitives with one
   // (points, edges, triangles), the new pairs of each kind, and the merged pair lists.
   std::vector<std::uint8_t> grownParticle;

@@ -86,13 +86,33 @@ void prepareThreadPairs(std::vector<std::vector<std::uint64_t>>& lists) {
   for (std::vector<std::uint64_t>& list : lists) list.clear();
 }
 
-// What the pair callbacks need to filter a pair and keep it.
+// What the pair callbacks need to filter a pair and keep it. Embree reports a few pairs per call
+// (about three on a folded cloth), so each arena thread gathers the pairs it keeps in a staging
+// buffer of its own and moves them to its list a few thousand at a time (flushStaging).
 struct PairFilter {
   const CollisionPrimitives* primitives;
   const Real* w;
   const Index* isolatedPoints;  // tree primitive → point, for the IsolatedPoints tree
   ThreadPairs found;
+  std::vector<std::vector<std::uint64_t>>* staging;  // per arena thread, as found.lists
 };
+
+constexpr std::size_t kStagedPairs = 4096;
+
+// Sized like the thread lists, emptied, each with room for kStagedPairs.
+void prepareStaging(std::vector<std::vector<std::uint64_t>>& staging, std::size_t slots) {
+  staging.resize(std::max(staging.size(), slots));
+  for (std::vector<std::uint64_t>& stage : staging) stage.clear(), stage.reserve(kStagedPairs);
+}
+
+// Moves every staged pair to its thread's list.
+void flushStaging(std::vector<std::vector<std::uint64_t>>& staging,
+                  std::vector<std::vector<std::uint64_t>>& lists) {
+  for (std::size_t slot = 0; slot < staging.size() && slot < lists.size(); ++slot) {
+    lists[slot].insert(lists[slot].end(), staging[slot].begin(), staging[slot].end());
+    staging[slot].clear();
+  }
+}
 
 std::span<const Index> particlesOf(const CollisionPrimitives& prims, PairKind kind, bool first,
                                    Index i) {
@@ -112,8 +132,8 @@ std::uint32_t objectOf(const CollisionPrimitives& prims, PairKind kind, bool fir
 // Whether two primitives whose boxes overlap, the pair (first, second) of `kind` in the indices of
 // components/candidate_pairs.h, are a pair: they share no particle, one of them can move, and
 // their objects collide.
-bool admissible(const CollisionPrimitives& prims, const Real* w, PairKind kind, Index first,
-                Index second) {
+[[gnu::always_inline]] inline bool admissible(const CollisionPrimitives& prims, const Real* w,
+                                              PairKind kind, Index first, Index second) {
   const std::span<const Index> particlesA = particlesOf(prims, kind, true, first),
                                particlesB = particlesOf(prims, kind, false, second);
   bool shared = false, free = false;
@@ -134,7 +154,9 @@ template <PairKind kKind>
 void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
   const PairFilter& f = *static_cast<const PairFilter*>(raw);
   const CollisionPrimitives& prims = *f.primitives;
-  // Embree reports at most a few hundred pairs per call: kept here, then appended at once.
+  const int slot = tbb::this_task_arena::current_thread_index();
+  const bool staged = slot >= 0 && static_cast<std::size_t>(slot) + 1 < f.found.lists->size();
+  // A thread outside the arena keeps its pairs in a batch of its own, appended under the lock.
   constexpr std::size_t kBatch = 256;
   std::uint64_t kept[kBatch];
   std::size_t keptCount = 0;
@@ -145,7 +167,18 @@ void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
       first = f.isolatedPoints[first];
     if constexpr (kKind == PairKind::VertexVertex) second = f.isolatedPoints[second];
     if (!admissible(prims, f.w, kKind, first, second)) continue;
-    kept[keptCount++] = std::uint64_t{first} << 32 | second;
+    const std::uint64_t key = std::uint64_t{first} << 32 | second;
+    if (staged) {
+      std::vector<std::uint64_t>& stage = (*f.staging)[static_cast<std::size_t>(slot)];
+      stage.push_back(key);
+      if (stage.size() == kStagedPairs) {
+        std::vector<std::uint64_t>& list = (*f.found.lists)[static_cast<std::size_t>(slot)];
+        list.insert(list.end(), stage.begin(), stage.end());
+        stage.clear();
+      }
+      continue;
+    }
+    kept[keptCount++] = key;
     if (keptCount == kBatch) f.found.append(kept, keptCount), keptCount = 0;
   }
   f.found.append(kept, keptCount);
@@ -306,8 +339,9 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
   out.clear();
   prepareThreadPairs(bvh.threadPairs);
   std::mutex overflowLock;
+  prepareStaging(bvh.threadStaging, bvh.threadPairs.size());
   PairFilter filter{&primitives, w.data(), bvh.isolatedPoints.data(),
-                    ThreadPairs{&bvh.threadPairs, &overflowLock}};
+                    ThreadPairs{&bvh.threadPairs, &overflowLock}, &bvh.threadStaging};
   struct Traversal {
     PairKind kind;
     BvhTree a, b;
@@ -323,6 +357,7 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
   }};
   for (const Traversal& t : traversals) {
     bvh.forEachOverlappingPair(t.a, t.b, t.keep, &filter);
+    flushStaging(bvh.threadStaging, bvh.threadPairs);
     const std::size_t firsts = t.kind == PairKind::EdgeEdge ? edges : points;
     stats.pairs[static_cast<std::size_t>(t.kind)] = appendInOrder(out, bvh, t.kind, firsts);
   }
