@@ -91,7 +91,7 @@ class PrimitiveBvh {
   // Broad phase scratch, kept between calls for its capacity.
   std::vector<Index> isolatedPoints;  // the point of each primitive of the IsolatedPoints tree
   std::vector<Index> pairOffset;      // per query primitive: where its partners start
-  std::vector<Index> pairCursor;      // per query primitive: the next free place of its partners
+  std::vector<Index> listPlace;       // per thread list and query primitive: count, then place
   // Pairs found by each thread of the arena (by its index in it), and last a list shared by
   // threads outside the arena, as first << 32 | second, before they are put in order.
   std::vector<std::vector<std::uint64_t>> threadPairs;

@@ -185,38 +185,43 @@ void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
 }
 
 // Appends the pairs the threads found, of one kind whose first index is below `firsts`, to `out`
-// sorted by (first, second): a counting sort by first index (integer atomics: the same counts
-// in any order), then each first index's few partners sorted, so that the result does not depend
-// on which thread found which pair. Returns how many were appended.
+// sorted by (first, second): a counting sort by first index, each thread's list counted and
+// scattered by one task into places of its own (no atomics: the lists' pairs of one first index
+// follow one another in list order), then each first index's few partners sorted, so that the
+// result does not depend on which thread found which pair. Returns how many were appended.
 std::size_t appendInOrder(CandidatePairs& out, PrimitiveBvh& bvh, PairKind kind,
                           std::size_t firsts) {
-  bvh.pairOffset.assign(firsts + 1, 0);
-  for (std::vector<std::uint64_t>& found : bvh.threadPairs)
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, found.size(), kPairGrain),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
-                        for (std::size_t i = r.begin(); i != r.end(); ++i)
-                          std::atomic_ref<Index>(bvh.pairOffset[(found[i] >> 32) + 1])
-                              .fetch_add(1, std::memory_order_relaxed);
-                      });
+  const std::size_t lists = bvh.threadPairs.size(), stride = firsts + 1;
+  // listPlace[l × stride + f]: first the count of list l's pairs with first index f, then where
+  // the next of them goes.
+  bvh.listPlace.assign(lists * stride, 0);
+  tbb::parallel_for(std::size_t{0}, lists, [&](std::size_t l) {
+    Index* count = bvh.listPlace.data() + l * stride;
+    for (const std::uint64_t key : bvh.threadPairs[l]) ++count[key >> 32];
+  });
   const std::size_t base = out.size();
-  for (std::size_t i = 0; i < firsts; ++i) bvh.pairOffset[i + 1] += bvh.pairOffset[i];
-  const std::size_t added = bvh.pairOffset[firsts];
+  bvh.pairOffset.assign(firsts + 1, 0);
+  std::size_t running = 0;
+  for (std::size_t f = 0; f < firsts; ++f) {
+    bvh.pairOffset[f] = static_cast<Index>(running);
+    for (std::size_t l = 0; l < lists; ++l) {
+      Index& place = bvh.listPlace[l * stride + f];
+      const Index count = place;
+      place = static_cast<Index>(running);
+      running += count;
+    }
+  }
+  bvh.pairOffset[firsts] = static_cast<Index>(running);
+  const std::size_t added = running;
   out.kind.resize(base + added, kind);
   out.first.resize(base + added);
   out.second.resize(base + added);
-  bvh.pairCursor.assign(bvh.pairOffset.begin(), bvh.pairOffset.end() - 1);
-  for (std::vector<std::uint64_t>& found : bvh.threadPairs) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, found.size(), kPairGrain),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
-                        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                          const Index first = static_cast<Index>(found[i] >> 32);
-                          const Index at = std::atomic_ref<Index>(bvh.pairCursor[first])
-                                               .fetch_add(1, std::memory_order_relaxed);
-                          out.second[base + at] = static_cast<Index>(found[i] & 0xffffffffu);
-                        }
-                      });
-    found.clear();
-  }
+  tbb::parallel_for(std::size_t{0}, lists, [&](std::size_t l) {
+    Index* place = bvh.listPlace.data() + l * stride;
+    for (const std::uint64_t key : bvh.threadPairs[l])
+      out.second[base + place[key >> 32]++] = static_cast<Index>(key & 0xffffffffu);
+    bvh.threadPairs[l].clear();
+  });
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, firsts, kBoxGrain),
       [&](const tbb::blocked_range<std::size_t>& r) {
