@@ -199,20 +199,34 @@ std::size_t appendInOrder(CandidatePairs& out, PrimitiveBvh& bvh, PairKind kind,
     Index* count = bvh.listPlace.data() + l * stride;
     for (const std::uint64_t key : bvh.threadPairs[l]) ++count[key >> 32];
   });
-  const std::size_t base = out.size();
+  // Each first index's total, a prefix sum over the first indices, then each list's place within
+  // its first index's run: the serial work is one pass over the first indices for any thread
+  // count.
   bvh.pairOffset.assign(firsts + 1, 0);
-  std::size_t running = 0;
-  for (std::size_t f = 0; f < firsts; ++f) {
-    bvh.pairOffset[f] = static_cast<Index>(running);
-    for (std::size_t l = 0; l < lists; ++l) {
-      Index& place = bvh.listPlace[l * stride + f];
-      const Index count = place;
-      place = static_cast<Index>(running);
-      running += count;
-    }
-  }
-  bvh.pairOffset[firsts] = static_cast<Index>(running);
-  const std::size_t added = running;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, firsts, kBoxGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t f = r.begin(); f != r.end(); ++f) {
+                        Index total = 0;
+                        for (std::size_t l = 0; l < lists; ++l)
+                          total += bvh.listPlace[l * stride + f];
+                        bvh.pairOffset[f + 1] = total;
+                      }
+                    });
+  for (std::size_t f = 0; f < firsts; ++f) bvh.pairOffset[f + 1] += bvh.pairOffset[f];
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, firsts, kBoxGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t f = r.begin(); f != r.end(); ++f) {
+                        Index running = bvh.pairOffset[f];
+                        for (std::size_t l = 0; l < lists; ++l) {
+                          Index& place = bvh.listPlace[l * stride + f];
+                          const Index count = place;
+                          place = running;
+                          running += count;
+                        }
+                      }
+                    });
+  const std::size_t base = out.size();
+  const std::size_t added = bvh.pairOffset[firsts];
   out.kind.resize(base + added, kind);
   out.first.resize(base + added);
   out.second.resize(base + added);
