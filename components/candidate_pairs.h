@@ -14,6 +14,7 @@
 //
 // The set is complete only while every particle stays inside its bounds (boundLower, boundUpper):
 // the box of the motion the pairs were found for, grown by less than the primitives' boxes were.
+// Boxes and bounds are kept in a frame that follows the particles' common motion (frameOrigin).
 // Two primitives whose particles stay inside their bounds and that are not a pair cannot come
 // within their contact distance. The solve clamps free particles into their bounds; a substep
 // whose prediction leaves them finds the pairs again.
@@ -42,6 +43,14 @@ struct CandidatePairs {
   std::vector<Vec3> boundUpper;
   // Scratch: the end of each particle's extrapolated motion (predictMotionEnd).
   std::vector<Vec3> motionEnd;
+  // The frame the motion boxes and bounds are in (broad_phase.h, setMotionFrame): its offset from
+  // the world at each substep boundary k of the step (k = 0 at the step's start, k = substeps at
+  // its end), and the substep in progress. A particle at p at boundary k is at p − frameOrigin[k]
+  // in the frame; with no frame set, the offset is zero.
+  std::vector<Vec3> frameOrigin;
+  int frameSubstep = 0;
+  // Scratch of setMotionFrame: one coordinate of every free particle's motion.
+  std::vector<Real> frameScratch;
   // Which set this is: every change of the pairs (a broad phase, full or incremental) counts one
   // up, so that per-pair data kept elsewhere can tell whether it still belongs to them.
   std::uint64_t version = 0;
@@ -56,6 +65,14 @@ struct CandidatePairs {
   std::vector<Index> formerSecond;
 
   std::size_t size() const { return kind.size(); }
+  Vec3 frameAt(int boundary) const {
+    return boundary >= 0 && static_cast<std::size_t>(boundary) < frameOrigin.size()
+               ? frameOrigin[static_cast<std::size_t>(boundary)]
+               : Vec3::Zero();
+  }
+  // The offsets at the start and at the end of the substep in progress.
+  Vec3 startOffset() const { return frameAt(frameSubstep); }
+  Vec3 endOffset() const { return frameAt(frameSubstep + 1); }
   void clear() { kind.clear(), first.clear(), second.clear(), formerIndex.clear(), ++version; }
   void push_back(PairKind k, Index a, Index b) {
     kind.push_back(k), first.push_back(a), second.push_back(b);

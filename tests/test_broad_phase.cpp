@@ -20,6 +20,7 @@
 #include "components/primitive_bvh.h"
 #include "nucleon/shapes.h"
 #include "systems/collision/broad_phase.h"
+#include "systems/collision/primitive_distance.h"
 
 namespace nucleon {
 namespace {
@@ -481,6 +482,128 @@ TEST(BroadPhase, EmptyAndPartialInput) {
   EXPECT_EQ(pairs.size(), 0u);
   EXPECT_EQ(bvh.builtCount(BvhTree::IsolatedPoints), 0u);
   EXPECT_EQ(bvh.embreeErrors(), 0u);
+}
+
+// Pairs found in the frame of the common motion (setMotionFrame) are complete: a folded cloth
+// carried 9 edges sideways and down over the substep (with its jitter), every vertex–triangle
+// and edge–edge pair that comes within its contact distance at one of 65 instants of the linear
+// motion is a candidate (the radii doubled so that the layers are within reach). In the world the
+// same motion's boxes reach across many rings of neighbours; in the frame they hold fewer than a
+// third of the pairs.
+TEST(BroadPhase, PairsFoundInTheFrameOfTheCommonMotionAreComplete) {
+  for (unsigned seed : {11u, 12u}) {
+    Scene s = foldedCloth(16, seed);
+    // Radii of half an edge: the layers, 3/4 of an edge apart, are within reach of each other.
+    for (auto* radii :
+         {&s.primitives.pointRadius, &s.primitives.edgeRadius, &s.primitives.triangleRadius})
+      for (Real& r : *radii) r *= 2;
+    const Real edge = Real(1) / 15;
+    const Vec3 carried = Vec3(6, -5, 4) * edge;
+    for (std::size_t i = 0; i < s.p.size(); ++i)
+      if (s.w[i] != 0) s.p[i] += carried;
+    CandidatePairs world, framed;
+    PrimitiveBvh worldBvh, framedBvh;
+    s.embree(world, worldBvh);
+    setMotionFrame(framed, s.x, s.p, s.w, Vec3::Zero(), Real(0.01), 0, 1);
+    // The frame moves as the free particles do, to within the jitter.
+    EXPECT_LT((framed.frameAt(1) - (carried + Vec3(0, -edge / 3, 0))).norm(), edge / 10);
+    EXPECT_EQ(framed.frameAt(0), Vec3::Zero());
+    setMotionBounds(framed, s.x, s.p, Vec3::Zero(), framed.frameAt(1));
+    findCandidatePairs(framed, framedBvh, s.primitives, framed.motionLower, framed.motionUpper, s.w,
+                       s.margin);
+    growParticleBounds(framed, boundSlack(s.primitives, s.margin));
+    expectPairRules(s, framed);
+    EXPECT_TRUE(withinParticleBounds(framed, s.p));
+    EXPECT_LT(3 * framed.size(), world.size());
+
+    std::set<std::tuple<PairKind, Index, Index>> found;
+    for (std::size_t k = 0; k < framed.size(); ++k)
+      found.insert({framed.kind[k], framed.first[k], framed.second[k]});
+    const CollisionPrimitives& c = s.primitives;
+    const auto at = [&](Index i, double t) {
+      return Vec3d((1 - t) * s.x[i].cast<double>() + t * s.p[i].cast<double>());
+    };
+    const auto shares = [](std::span<const Index> a, std::span<const Index> b) {
+      for (Index i : a)
+        for (Index j : b)
+          if (i == j) return true;
+      return false;
+    };
+    std::size_t touching = 0, missed = 0;
+    for (Index v = 0; v < c.points(); ++v)
+      for (Index t = 0; t < c.triangles(); ++t) {
+        const auto& tri = c.triangleParticles[t];
+        const Index point = c.pointParticle[v];
+        if (shares({&point, 1}, tri) ||
+            (s.w[point] == 0 && s.w[tri[0]] == 0 && s.w[tri[1]] == 0 && s.w[tri[2]] == 0))
+          continue;
+        const double reach = double(c.pointRadius[v] + c.triangleRadius[t]);
+        for (int k = 0; k <= 64; ++k) {
+          const double time = k / 64.0;
+          const Vec3d P = at(point, time), A = at(tri[0], time), B = at(tri[1], time),
+                      C = at(tri[2], time);
+          const auto b = closestOnTriangle(P, A, B, C);
+          if ((P - (b[0] * A + b[1] * B + b[2] * C)).norm() < reach) {
+            ++touching;
+            missed += !found.count({PairKind::VertexFace, v, t});
+            break;
+          }
+        }
+      }
+    for (Index e = 0; e < c.edges(); ++e)
+      for (Index f = e + 1; f < c.edges(); ++f) {
+        const auto &a = c.edgeParticles[e], &b = c.edgeParticles[f];
+        if (shares(a, b) || (s.w[a[0]] == 0 && s.w[a[1]] == 0 && s.w[b[0]] == 0 && s.w[b[1]] == 0))
+          continue;
+        const double reach = double(c.edgeRadius[e] + c.edgeRadius[f]);
+        for (int k = 0; k <= 64; ++k) {
+          const double time = k / 64.0;
+          const Vec3d P = at(a[0], time), Q = at(a[1], time), R = at(b[0], time),
+                      S = at(b[1], time);
+          const auto u = closestBetweenSegments(P, Q, R, S);
+          if (((P + u[0] * (Q - P)) - (R + u[1] * (S - R))).norm() < reach) {
+            ++touching;
+            missed += !found.count({PairKind::EdgeEdge, e, f});
+            break;
+          }
+        }
+      }
+    EXPECT_GT(touching, 1000u);  // the layers are within reach of each other
+    EXPECT_EQ(missed, 0u);
+  }
+}
+
+// A position clamped into its bounds in a frame far from the world's origin is inside them when
+// tested again, despite the rounding of the offset's subtraction and addition; a position inside
+// is returned unchanged.
+TEST(BroadPhase, ClampIntoBoundsLandsInsideInAnyFrame) {
+  std::mt19937 random(21);
+  std::uniform_real_distribution<double> offset(-3000, 3000), spread(-1, 1);
+  CandidatePairs pairs;
+  const std::size_t n = 4000;
+  pairs.boundLower.resize(n);
+  pairs.boundUpper.resize(n);
+  std::vector<Vec3> p(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3 centre(Real(spread(random)), Real(spread(random)), Real(spread(random)));
+    pairs.boundLower[i] = centre.array() - Real(0.01);
+    pairs.boundUpper[i] = centre.array() + Real(0.01);
+  }
+  for (int trial = 0; trial < 8; ++trial) {
+    const Vec3 held(Real(offset(random)), Real(offset(random)), Real(offset(random)));
+    pairs.frameOrigin.assign(3, held);
+    pairs.frameSubstep = trial % 2;
+    for (std::size_t i = 0; i < n; ++i)
+      p[i] = held + pairs.boundLower[i] +
+             Vec3(Real(spread(random)), Real(spread(random)), Real(spread(random))) / 20;
+    const std::size_t outside = countOutsideParticleBounds(pairs, p);
+    EXPECT_GT(outside, n / 4);
+    for (std::size_t i = 0; i < n; ++i) {
+      p[i] = clampIntoBounds(pairs, i, p[i]);
+      EXPECT_EQ(clampIntoBounds(pairs, i, p[i]), p[i]);
+    }
+    EXPECT_EQ(countOutsideParticleBounds(pairs, p), 0u);
+  }
 }
 
 }  // namespace

@@ -257,6 +257,22 @@ TEST(CollisionResponse, FoldingClothDoesNotIntersectItself) {
   EXPECT_GT(withoutSelfCollision, 0u);
 }
 
+// A cloth folded onto the ground comes to rest, and a step at rest starts from the last step's
+// pairs without any search (CollisionReport::keptPairSets) while the layers stay apart: the
+// kept set is complete as long as every particle stays within its bounds.
+TEST(CollisionResponse, ClothAtRestKeepsItsPairsAcrossSteps) {
+  World world = foldingClothWorld(true);
+  for (int frame = 0; frame < 150; ++frame) {
+    world.step(1.0 / 60);
+    ASSERT_EQ(world.measure().intersections, 0u) << "frame " << frame;
+  }
+  const CollisionReport& report = world.collisionReport();
+  EXPECT_GT(report.keptPairSets, 30u);
+  EXPECT_LT(report.broadPhases, 150u + report.broadPhaseRefreshes + report.solveRedetections);
+  EXPECT_EQ(report.unresolvedPairs, 0u);
+  EXPECT_EQ(world.recoveries().total(), 0u);
+}
+
 // The pellet of bullet_cloth (200 m/s, 0.83 m per substep against a 5 mm cloth) never passes
 // through the cloth. The world is stepped at the scene's substep rate, one substep per step, so
 // that each step moves every particle on a straight line; after each step the pellet's motion is

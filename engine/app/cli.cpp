@@ -318,6 +318,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
     const CollisionReport& c = world.collisionReport();
     stats["collisions"] = {
         {"broad_phases", c.broadPhases},
+        {"kept_pair_sets", c.keptPairSets},
         {"broad_phase_refreshes", c.broadPhaseRefreshes},
         {"incremental_broad_phases", c.incrementalBroadPhases},
         {"solve_redetections", c.solveRedetections},

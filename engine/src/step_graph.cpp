@@ -119,27 +119,41 @@ void StepGraph::runStage(int stage) {
         s.primitiveContacts.resize(0);
         break;
       }
-      // Once per step over the step's extrapolated motion, and again for the rest of the step
-      // whenever a substep's prediction leaves the particles' bounds (a kinematic track that
-      // curves, a particle knocked off its course), so the pair set is always complete.
+      // At most once per step over the step's extrapolated motion, and again for the rest of the
+      // step whenever a substep's prediction leaves the particles' bounds (a kinematic track that
+      // curves, a particle knocked off its course), so the pair set is always complete. A step
+      // starts from the last step's pairs while they stay complete and tight: a cloth at rest
+      // keeps its pairs for as long as it rests.
       profile.broadPhase += timed([&] {
-        if (c.substep > 0 && withinParticleBounds(s.candidates, s.particles.p)) return;
-        const ParticlePool& particles = s.particles;
         CandidatePairs& pairs = s.candidates;
+        const ParticlePool& particles = s.particles;
         const Real slack = boundSlack(s.primitives, kPrimitiveContactMargin);
+        pairs.frameSubstep = c.substep;
+        const bool carried =
+            c.substep > 0 || carryPairsIntoStep(pairs, particles.x, particles.p, c.substeps, slack);
+        if (carried && withinParticleBounds(pairs, particles.p)) {
+          if (c.substep == 0) ++report.keptPairSets;
+          return;
+        }
         predictMotionEnd(pairs.motionEnd, particles.x, particles.p, particles.w, s.gravity, c.h,
                          c.substeps - c.substep);
         ++report.broadPhases;
-        if (c.substep > 0) {
-          ++report.broadPhaseRefreshes;
+        if (carried) {
+          if (c.substep > 0) ++report.broadPhaseRefreshes;
           // Few particles off their course: only theirs are found again.
-          if (extendCandidatePairs(pairs, s.bvh, s.primitives, particles.p, particles.x,
-                                   pairs.motionEnd, particles.w, kPrimitiveContactMargin, slack)) {
+          if (extendCandidatePairs(
+                  pairs, s.bvh, s.primitives, particles.p, particles.x, pairs.motionEnd,
+                  particles.w, kPrimitiveContactMargin, slack,
+                  {pairs.endOffset(), pairs.startOffset(), pairs.frameAt(c.substeps)})) {
             ++report.incrementalBroadPhases;
             return;
           }
         }
-        setMotionBounds(pairs, particles.x, pairs.motionEnd);
+        // A new frame from this substep on: the substep's start is at offset zero.
+        setMotionFrame(pairs, particles.x, particles.p, particles.w, s.gravity, c.h, c.substep,
+                       c.substeps);
+        setMotionBounds(pairs, particles.x, pairs.motionEnd, Vec3::Zero(),
+                        pairs.frameAt(c.substeps));
         // A primitive's box is the box of its particles' motion boxes, which are the two corners.
         findCandidatePairs(pairs, s.bvh, s.primitives, pairs.motionLower, pairs.motionUpper,
                            particles.w, kPrimitiveContactMargin);

@@ -46,7 +46,10 @@ struct Recoveries {
 // substeps, the displacement bound and the crossing fail-safe's work (ARCHITECTURE.md §4)
 // (their time is StepProfile's broadPhase, narrowPhase and collisions).
 struct CollisionReport {
-  std::uint64_t broadPhases = 0;          // broad-phase runs: one per step, plus the refreshes
+  // Broad-phase runs: at most one per step, plus the refreshes.
+  std::uint64_t broadPhases = 0;
+  // Steps that started from the last step's pairs, complete and tight, with no search at all.
+  std::uint64_t keptPairSets = 0;
   std::uint64_t broadPhaseRefreshes = 0;  // runs within a step: a prediction left its bounds
   std::uint64_t solveRedetections = 0;    // runs after a solve that left the bounds
   // Refreshes and re-detections that found again only the pairs of the primitives whose particles

@@ -399,15 +399,42 @@ void predictMotionEnd(std::vector<Vec3>& end, std::span<const Vec3> x, std::span
                     });
 }
 
-void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start,
-                     std::span<const Vec3> end) {
+void setMotionFrame(CandidatePairs& pairs, std::span<const Vec3> x, std::span<const Vec3> p,
+                    std::span<const Real> w, const Vec3& g, Real h, int substep, int substeps) {
+  // The per-axis median of the free particles' finite motions: an nth_element over a copy, the
+  // same whatever the thread count.
+  Vec3 median = Vec3::Zero();
+  std::vector<Real>& values = pairs.frameScratch;
+  for (int axis = 0; axis < 3; ++axis) {
+    values.clear();
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      const Real u = p[i][axis] - x[i][axis];
+      if (w[i] != 0 && std::isfinite(u)) values.push_back(u);
+    }
+    if (values.empty()) break;
+    const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+    std::nth_element(values.begin(), middle, values.end());
+    median[axis] = *middle;
+  }
+  pairs.frameOrigin.assign(static_cast<std::size_t>(std::max(substeps, substep + 1)) + 1,
+                           Vec3::Zero());
+  for (std::size_t k = static_cast<std::size_t>(substep) + 1; k < pairs.frameOrigin.size(); ++k) {
+    const Real j = static_cast<Real>(k - static_cast<std::size_t>(substep));
+    pairs.frameOrigin[k] = j * median + (j * (j - 1) / 2 * h * h) * g;
+  }
+  pairs.frameSubstep = substep;
+}
+
+void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::span<const Vec3> end,
+                     const Vec3& startOffset, const Vec3& endOffset) {
   pairs.motionLower.resize(start.size());
   pairs.motionUpper.resize(start.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, start.size(), kBoxGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        pairs.motionLower[i] = start[i].cwiseMin(end[i]);
-                        pairs.motionUpper[i] = start[i].cwiseMax(end[i]);
+                        const Vec3 a = start[i] - startOffset, b = end[i] - endOffset;
+                        pairs.motionLower[i] = a.cwiseMin(b);
+                        pairs.motionUpper[i] = a.cwiseMax(b);
                       }
                     });
 }
@@ -428,15 +455,27 @@ void growParticleBounds(CandidatePairs& pairs, Real slack) {
                     });
 }
 
+namespace {
+
+// Whether `position`, at the instant the frame is offset by `offset`, is outside particle i's
+// bounds. Written so that a non-finite coordinate does not count as outside.
+bool outsideBounds(const CandidatePairs& pairs, const Vec3& position, const Vec3& offset,
+                   std::size_t i) {
+  const Vec3 inFrame = position - offset;
+  return (inFrame.array() < pairs.boundLower[i].array()).any() ||
+         (inFrame.array() > pairs.boundUpper[i].array()).any();
+}
+
+}  // namespace
+
 std::size_t countOutsideParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p) {
   if (pairs.boundLower.size() != p.size()) return p.size();
+  const Vec3 offset = pairs.endOffset();
   return tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, p.size(), kBoxGrain), std::size_t{0},
       [&](const tbb::blocked_range<std::size_t>& r, std::size_t count) {
         for (std::size_t i = r.begin(); i != r.end(); ++i)
-          // Written so that a non-finite coordinate does not count as outside.
-          count += (p[i].array() < pairs.boundLower[i].array()).any() ||
-                   (p[i].array() > pairs.boundUpper[i].array()).any();
+          count += outsideBounds(pairs, p[i], offset, i);
         return count;
       },
       std::plus<>());
@@ -446,13 +485,58 @@ bool withinParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p) 
   return pairs.boundLower.size() == p.size() && countOutsideParticleBounds(pairs, p) == 0;
 }
 
-namespace {
-
-bool outsideBounds(const CandidatePairs& pairs, const Vec3& position, std::size_t i) {
-  // Written so that a non-finite coordinate does not count as outside.
-  return (position.array() < pairs.boundLower[i].array()).any() ||
-         (position.array() > pairs.boundUpper[i].array()).any();
+bool carryPairsIntoStep(CandidatePairs& pairs, std::span<const Vec3> x, std::span<const Vec3> p,
+                        int substeps, Real slack) {
+  const std::size_t n = x.size();
+  if (pairs.boundLower.size() != n || pairs.motionLower.size() != n || n == 0) return false;
+  const Vec3 held = pairs.frameOrigin.empty() ? Vec3::Zero() : pairs.frameOrigin.back();
+  pairs.frameOrigin.assign(static_cast<std::size_t>(std::max(substeps, 1)) + 1, held);
+  pairs.frameSubstep = 0;
+  struct Tally {
+    std::size_t outside = 0;
+    double bounds = 0, needed = 0;
+  };
+  // Summed in fixed chunks, in order: the same decision whatever the thread count.
+  const Tally tally = tbb::parallel_deterministic_reduce(
+      tbb::blocked_range<std::size_t>(0, n, kBoxGrain), Tally{},
+      [&](const tbb::blocked_range<std::size_t>& r, Tally sum) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          sum.outside += outsideBounds(pairs, x[i], held, i);
+          const Vec3 motion = (p[i] - x[i]).cwiseAbs() * static_cast<Real>(substeps);
+          if (!motion.allFinite()) continue;  // left to the search and the update's repair
+          sum.bounds += double((pairs.boundUpper[i] - pairs.boundLower[i]).sum());
+          sum.needed += double(motion.sum()) + 6 * double(slack);
+        }
+        return sum;
+      },
+      [](Tally a, const Tally& b) {
+        a.outside += b.outside, a.bounds += b.bounds, a.needed += b.needed;
+        return a;
+      });
+  return tally.outside == 0 && tally.bounds <= double(kLooseBounds) * tally.needed;
 }
+
+Vec3 clampIntoBounds(const CandidatePairs& pairs, std::size_t i, const Vec3& p) {
+  const Vec3 offset = pairs.endOffset();
+  if (!outsideBounds(pairs, p, offset, i)) return p;
+  const Vec3 lower = pairs.boundLower[i], upper = pairs.boundUpper[i];
+  Vec3 inside = (p - offset).cwiseMax(lower).cwiseMin(upper) + offset;
+  // Adding the offset back rounds: a coordinate that lands a float step outside is stepped in.
+  constexpr Real kInfinite = std::numeric_limits<Real>::infinity();
+  for (int k = 0; k < 3; ++k)
+    for (int step = 0; step < 8; ++step) {
+      const Real inFrame = inside[k] - offset[k];
+      if (inFrame < lower[k])
+        inside[k] = std::nextafter(inside[k], kInfinite);
+      else if (inFrame > upper[k])
+        inside[k] = std::nextafter(inside[k], -kInfinite);
+      else
+        break;
+    }
+  return inside;
+}
+
+namespace {
 
 // One query of the incremental re-detection: a changed primitive (`self`) against a tree, each
 // partner the tree reports made a pair (first, second) of `kind` and kept if admissible.
@@ -487,7 +571,8 @@ void keepExtension(void* raw, Index partner) {
 bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                           const CollisionPrimitives& primitives, std::span<const Vec3> position,
                           std::span<const Vec3> start, std::span<const Vec3> end,
-                          std::span<const Real> w, Real margin, Real slack) {
+                          std::span<const Real> w, Real margin, Real slack,
+                          const FrameOffsets& offsets) {
   const std::size_t n = position.size();
   const std::size_t points = primitives.points(), edges = primitives.edges(),
                     triangles = primitives.triangles();
@@ -507,13 +592,14 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   grown.assign(n, 0);
   std::size_t outside = 0;
   for (std::size_t i = 0; i < n; ++i)
-    if (outsideBounds(pairs, position[i], i)) grown[i] = 1, ++outside;
+    if (outsideBounds(pairs, position[i], offsets.position, i)) grown[i] = 1, ++outside;
   if (outside == 0) return true;
   if (outside * kExtendShare > n) return false;
   for (std::size_t i = 0; i < n; ++i) {
     if (!grown[i]) continue;
-    pairs.motionLower[i] = start[i].cwiseMin(end[i]);
-    pairs.motionUpper[i] = start[i].cwiseMax(end[i]);
+    const Vec3 a = start[i] - offsets.start, b = end[i] - offsets.end;
+    pairs.motionLower[i] = a.cwiseMin(b);
+    pairs.motionUpper[i] = a.cwiseMax(b);
     pairs.boundLower[i] = pairs.motionLower[i].array() - slack;
     pairs.boundUpper[i] = pairs.motionUpper[i].array() + slack;
   }

@@ -80,9 +80,23 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
 void predictMotionEnd(std::vector<Vec3>& end, std::span<const Vec3> x, std::span<const Vec3> p,
                       std::span<const Real> w, const Vec3& g, Real h, int remaining);
 
+// The frame of a step's boxes and bounds, from substep `substep` on (CandidatePairs::frameOrigin):
+// it moves as the free particles' median motion would, extrapolated like predictMotionEnd
+// (j m + j(j − 1)/2 h² g, j substeps on, m the per-axis median of p − x). Distances between
+// primitives at one instant do not change when every particle is shifted by the same offset, so
+// pairs found from boxes and bounds taken in any such frame are as complete as in the world;
+// in this one a cloth that falls or flies as a whole has boxes no larger than its particles'
+// motion relative to one another (a cloth falling edge-first moves in its own plane, and its
+// swept boxes in the world reach several rings of neighbours). The per-axis median minimises the
+// summed extents of the motion boxes, and one fast particle does not move it. The boundaries up
+// to `substep` get offset zero, so positions at the substep's start need no shift.
+void setMotionFrame(CandidatePairs& pairs, std::span<const Vec3> x, std::span<const Vec3> p,
+                    std::span<const Real> w, const Vec3& g, Real h, int substep, int substeps);
+
 // Each particle's motion box, into pairs.motionLower/motionUpper: the box of its positions in
-// `start` and `end`.
-void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::span<const Vec3> end);
+// `start` and `end`, each taken in the frame (less the frame's offset at its instant).
+void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::span<const Vec3> end,
+                     const Vec3& startOffset = Vec3::Zero(), const Vec3& endOffset = Vec3::Zero());
 
 // How far a particle may stray outside its motion box with no crossing escaping the candidate
 // set: kBoundSlackFraction × (2 r_min + margin), r_min the smallest primitive radius. Two
@@ -107,17 +121,40 @@ void growParticleBounds(CandidatePairs& pairs, Real slack);
 // motion boxes, and CandidatePairs::formerIndex says where each pair was before. Returns false,
 // changing nothing, when more than 1/kExtendShare of the particles left their bounds, or the
 // trees were not built for the current primitives: a full findCandidatePairs is then cheaper.
+// `offsets` are the frame's offsets at the instants of `position`, `start` and `end`.
 constexpr std::size_t kExtendShare = 8;
+struct FrameOffsets {
+  Vec3 position = Vec3::Zero();
+  Vec3 start = Vec3::Zero();
+  Vec3 end = Vec3::Zero();
+};
 bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                           const CollisionPrimitives& primitives, std::span<const Vec3> position,
                           std::span<const Vec3> start, std::span<const Vec3> end,
-                          std::span<const Real> w, Real margin, Real slack);
+                          std::span<const Real> w, Real margin, Real slack,
+                          const FrameOffsets& offsets = {});
 
-// How many particles' positions in `p` lie outside their bounds (all of them when there are no
-// bounds for `p`), and whether none does. Particles with a non-finite position are left to the
-// update's counted repair and do not count as outside.
+// How many particles' positions in `p`, the end of the substep in progress, lie outside their
+// bounds (all of them when there are no bounds for `p`), and whether none does. Particles with a
+// non-finite position are left to the update's counted repair and do not count as outside.
 std::size_t countOutsideParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p);
 bool withinParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p);
+
+// Whether a new step may start from the last step's pairs (at its first substep, before any
+// search): the frame is held where the last step's ended (every boundary of the new step at that
+// offset), every particle's position x at the step's start lies within its bounds, and the bounds
+// are not loose: their summed extents are at most kLooseBounds times those a new search would
+// give (|p − x| over the step's `substeps` plus twice `slack`, per axis), so that a cloth come to
+// rest does not keep the larger pair set of its fall. The caller then checks p as at any substep:
+// within the bounds the set is complete, and few particles outside extend it. False when there
+// are no bounds for these particles.
+constexpr Real kLooseBounds = 2;
+bool carryPairsIntoStep(CandidatePairs& pairs, std::span<const Vec3> x, std::span<const Vec3> p,
+                        int substeps, Real slack);
+
+// Position `p` of particle i at the end of the substep in progress, moved to the nearest point
+// inside its bounds: the point that countOutsideParticleBounds then counts as inside.
+Vec3 clampIntoBounds(const CandidatePairs& pairs, std::size_t i, const Vec3& p);
 
 // The same pairs, by testing the boxes of every pair of primitives: quadratic, for tests and
 // scale.

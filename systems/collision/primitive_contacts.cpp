@@ -13,6 +13,7 @@
 #include <tbb/parallel_reduce.h>
 #include <tbb/parallel_scan.h>
 
+#include "systems/collision/broad_phase.h"
 #include "systems/collision/ccd.h"
 #include "systems/collision/primitive_distance.h"
 
@@ -850,8 +851,7 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
           // A non-finite prediction is left for the update, which resets and counts it.
           if (particles.w[i] == 0 || !particles.p[i].allFinite()) continue;
-          const Vec3 inside =
-              particles.p[i].cwiseMax(candidates.boundLower[i]).cwiseMin(candidates.boundUpper[i]);
+          const Vec3 inside = clampIntoBounds(candidates, i, particles.p[i]);
           if (inside != particles.p[i]) {
             particles.p[i] = inside;
             ++clamped;

@@ -81,14 +81,18 @@ void redetectFromSolve(SolvePools& pools, SolveReport& report) {
   ParticlePool& particles = pools.particles;
   const Real slack = boundSlack(pools.primitives, kPrimitiveContactMargin);
   // Few particles off their course: only theirs are found again.
-  if (extendCandidatePairs(pools.candidates, pools.bvh, pools.primitives, particles.p, particles.x,
-                           particles.p, particles.w, kPrimitiveContactMargin, slack)) {
+  CandidatePairs& pairs = pools.candidates;
+  // In the step's frame: the positions at the substep's start and end at their offsets.
+  const Vec3 start = pairs.startOffset(), end = pairs.endOffset();
+  if (extendCandidatePairs(pairs, pools.bvh, pools.primitives, particles.p, particles.x,
+                           particles.p, particles.w, kPrimitiveContactMargin, slack,
+                           {end, start, end})) {
     ++report.incrementalRedetections;
   } else {
-    findCandidatePairs(pools.candidates, pools.bvh, pools.primitives, particles.x, particles.p,
+    setMotionBounds(pairs, particles.x, particles.p, start, end);
+    findCandidatePairs(pairs, pools.bvh, pools.primitives, pairs.motionLower, pairs.motionUpper,
                        particles.w, kPrimitiveContactMargin);
-    setMotionBounds(pools.candidates, particles.x, particles.p);
-    growParticleBounds(pools.candidates, slack);
+    growParticleBounds(pairs, slack);
   }
   ++report.redetections;
 }
