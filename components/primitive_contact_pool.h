@@ -74,6 +74,12 @@ struct PrimitiveContactPool {
   // Per particle: the fail-safe round that last moved it, plus one (0: none), so that a round
   // re-tests only the pairs the one before changed.
   std::vector<int> failsafeRound;
+  // Scratch per collision primitive, by list (points, edges, triangles): the most any of its
+  // particles strays (the narrow phase) or deviates (the fail-safe), and whether the fail-safe's
+  // last round moved one of them, so that a scan over the pairs reads one value per primitive
+  // instead of every particle's.
+  std::array<std::vector<double>, 3> primitiveDeviation;
+  std::array<std::vector<std::uint8_t>, 3> primitiveMoved;
   // Per particle: what the fail-safe holds it to (primitive_contacts.h, resolveCrossings): its
   // precedence (0: its own predicted motion, 1: its impact zone's rigid motion, higher: carried
   // by the rigid motion of a kinematic body, a lower object and triangle first), and, when

@@ -456,15 +456,42 @@ Vec3d meanMotion(const ParticlePool& particles, std::vector<Vec3d>& sums,
   return count > 0 ? Vec3d(sum / double(count)) : Vec3d::Zero();
 }
 
-// The largest of `values` over each side of pair `v`.
-std::array<double, 2> sideMaxima(const PairView& v, const std::vector<double>& values) {
-  std::array<double, 2> most = {0, 0};
-  for (int k = 0; k < v.count; ++k) {
-    double& side = most[k < v.firstSide ? 0 : 1];
-    // Written so that a NaN wins: a pair with a non-finite value is never passed over.
-    if (!(values[v.id[k]] <= side)) side = values[v.id[k]];
+// The list (0 points, 1 edges, 2 triangles) of a pair's first or second primitive.
+constexpr int primitiveList(PairKind kind, bool first) {
+  switch (kind) {
+    case PairKind::VertexFace:
+      return first ? 0 : 2;
+    case PairKind::EdgeEdge:
+      return 1;
+    case PairKind::VertexEdge:
+      return first ? 0 : 1;
+    default:
+      return 0;
   }
-  return most;
+}
+
+// out[list][i]: `valueOf` of the particles of primitive i of each list.
+template <class T, class ValueOf>
+void gatherPerPrimitive(std::array<std::vector<T>, 3>& out, const CollisionPrimitives& prims,
+                        const ValueOf& valueOf) {
+  out[0].resize(prims.points());
+  out[1].resize(prims.edges());
+  out[2].resize(prims.triangles());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, prims.points(), kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i)
+                        out[0][i] = valueOf(std::span<const Index>(&prims.pointParticle[i], 1));
+                    });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, prims.edges(), kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i)
+                        out[1][i] = valueOf(std::span<const Index>(prims.edgeParticles[i]));
+                    });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, prims.triangles(), kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i)
+                        out[2][i] = valueOf(std::span<const Index>(prims.triangleParticles[i]));
+                    });
 }
 
 // The rigid motion x → R x + t of kinematic particles `ids` (one to three), from their
@@ -699,7 +726,18 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
                                               (particles.p[i].cast<double>() - x - mean).norm();
                         }
                       });
+    // A side strays by the most any of its particles does; written so that a NaN wins.
+    gatherPerPrimitive(contacts.primitiveDeviation, primitives, [&](std::span<const Index> ids) {
+      double most = 0;
+      for (Index id : ids)
+        if (!(contacts.stray[id] <= most)) most = contacts.stray[id];
+      return most;
+    });
   }
+  const std::array<const Real*, 3> radii = {primitives.pointRadius.data(),
+                                            primitives.edgeRadius.data(),
+                                            primitives.triangleRadius.data()};
+  const auto& strayOf = contacts.primitiveDeviation;
   // One pass: each fixed chunk of candidates keeps its contacts in candidate order, and the
   // chunks are concatenated in order, whatever the thread count. A pair whose carried bound
   // keeps it out of reach over this substep's motion is not measured again (see the header).
@@ -713,18 +751,20 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
           const std::size_t end = std::min(n, (chunk + 1) * kContactChunk);
           PrimitiveContactRecord record;
           for (std::size_t i = chunk * kContactChunk; i < end; ++i) {
-            const PairView v =
-                viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
+            const PairKind kind = candidates.kind[i];
+            const Index a = candidates.first[i], b = candidates.second[i];
             if (carry && contacts.lowerBound[i] > -kInfinity) {
               // Also a lower bound on the distance at the start of the substep.
-              const auto stray = sideMaxima(v, contacts.stray);
-              const double over = contacts.lowerBound[i] - stray[0] - stray[1];
-              if (over > double(v.radius) + double(kPrimitiveContactMargin) + kBoundTolerance) {
+              const int listA = primitiveList(kind, true), listB = primitiveList(kind, false);
+              const double over = contacts.lowerBound[i] - strayOf[listA][a] - strayOf[listB][b];
+              const Real radius = radii[listA][a] + radii[listB][b];
+              if (over > double(radius) + double(kPrimitiveContactMargin) + kBoundTolerance) {
                 contacts.startDistance[i] = over;
                 contacts.lowerBound[i] = over;
                 continue;
               }
             }
+            const PairView v = viewOf(primitives, kind, a, b);
             if (makeContact(v, primitives, particles, surfaces, contacts.startDistance[i],
                             contacts.lowerBound[i], record))
               made.push_back(record);
@@ -877,6 +917,13 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
             contacts.deviation[i] =
                 (particles.p[i].cast<double>() - contacts.predicted[i].cast<double>()).norm();
         });
+    // A side's deviation is the most any of its particles deviates; written so that a NaN wins.
+    gatherPerPrimitive(contacts.primitiveDeviation, primitives, [&](std::span<const Index> ids) {
+      double most = 0;
+      for (Index id : ids)
+        if (!(contacts.deviation[id] <= most)) most = contacts.deviation[id];
+      return most;
+    });
   }
   contacts.carryPrecedence.assign(particles.size(), 0);
   contacts.carryRotation.resize(particles.size());
@@ -889,22 +936,28 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
     // Pairs whose start distance the final motion could have used up, tested by CCD at zero
     // thickness: does any point of one reach the other? After the first round only the pairs
     // whose motion the last round changed, and those still crossing, can have a new answer.
+    if (round > 0)
+      gatherPerPrimitive(contacts.primitiveMoved, primitives, [&](std::span<const Index> ids) {
+        std::uint8_t moved = 0;
+        for (Index id : ids) moved |= contacts.failsafeRound[id] == round;
+        return moved;
+      });
+    const auto& deviation = contacts.primitiveDeviation;
+    const auto& moved = contacts.primitiveMoved;
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, n, kPairGrain),
         [&](const tbb::blocked_range<std::size_t>& r) {
           for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            const PairView v =
-                viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
-            if (round > 0 && !contacts.suspect[i]) {
-              bool moved = false;
-              for (int k = 0; k < v.count; ++k) moved |= contacts.failsafeRound[v.id[k]] == round;
-              if (!moved) continue;
-            }
+            const PairKind kind = candidates.kind[i];
+            const Index a = candidates.first[i], b = candidates.second[i];
+            const int listA = primitiveList(kind, true), listB = primitiveList(kind, false);
+            if (round > 0 && !contacts.suspect[i] && !moved[listA][a] && !moved[listB][b]) continue;
             contacts.suspect[i] = 0;
-            if (round == 0 && bounded) {
-              const auto stray = sideMaxima(v, contacts.deviation);
-              if (contacts.lowerBound[i] - stray[0] - stray[1] > kBoundTolerance) continue;
-            }
+            if (round == 0 && bounded &&
+                contacts.lowerBound[i] - deviation[listA][a] - deviation[listB][b] >
+                    kBoundTolerance)
+              continue;
+            const PairView v = viewOf(primitives, kind, a, b);
             Vec3d X0[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
             Vec3d X1[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
             for (int k = 0; k < v.count; ++k) {
