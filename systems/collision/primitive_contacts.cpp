@@ -942,6 +942,20 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
         for (Index id : ids) moved |= contacts.failsafeRound[id] == round;
         return moved;
       });
+    // How far each primitive's particles travel at most over the motion x → p as it now is: a
+    // pair whose start distance exceeds its two sides' travel summed cannot have crossed (each
+    // point of a side moves at most that far, and the distance is 1-Lipschitz in each point),
+    // which a scan reads without loading the pair's particles. Written so that a NaN wins and
+    // passes nothing over.
+    gatherPerPrimitive(contacts.primitiveTravel, primitives, [&](std::span<const Index> ids) {
+      double most = 0;
+      for (Index id : ids) {
+        const double travel = (particles.p[id] - particles.x[id]).cast<double>().norm();
+        if (!(travel <= most)) most = travel;
+      }
+      return most;
+    });
+    const auto& travel = contacts.primitiveTravel;
     const auto& deviation = contacts.primitiveDeviation;
     const auto& moved = contacts.primitiveMoved;
     tbb::parallel_for(
@@ -956,6 +970,8 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
             if (round == 0 && bounded &&
                 contacts.lowerBound[i] - deviation[listA][a] - deviation[listB][b] >
                     kBoundTolerance)
+              continue;
+            if (contacts.startDistance[i] - travel[listA][a] - travel[listB][b] > kBoundTolerance)
               continue;
             const PairView v = viewOf(primitives, kind, a, b);
             Vec3d X0[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
