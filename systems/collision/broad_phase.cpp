@@ -609,10 +609,14 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   auto& changedEdges = bvh.changedPrimitives[1];
   auto& changedTriangles = bvh.changedPrimitives[2];
   for (auto& list : bvh.changedPrimitives) list.clear();
+  bvh.changedPrimitive[0].assign(points, 0);
+  bvh.changedPrimitive[1].assign(edges, 0);
+  bvh.changedPrimitive[2].assign(triangles, 0);
   const std::span<const Vec3> lower = pairs.motionLower, upper = pairs.motionUpper;
   for (std::size_t i = 0; i < points; ++i)
     if (grown[primitives.pointParticle[i]]) {
       changedPoints.push_back(static_cast<Index>(i));
+      bvh.changedPrimitive[0][i] = 1;
       const PrimitiveBox box = sweptBox(pointParticles(primitives, i), lower, upper,
                                         primitives.pointRadius[i] + margin / 2);
       if (triangles > 0) pointBoxes[i] = box;
@@ -627,6 +631,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     const auto& ends = primitives.edgeParticles[e];
     if (!grown[ends[0]] && !grown[ends[1]]) continue;
     changedEdges.push_back(static_cast<Index>(e));
+    bvh.changedPrimitive[1][e] = 1;
     edgeBoxes[e] =
         sweptBox(edgeParticles(primitives, e), lower, upper, primitives.edgeRadius[e] + margin / 2);
   }
@@ -634,6 +639,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     const auto& corners = primitives.triangleParticles[t];
     if (!grown[corners[0]] && !grown[corners[1]] && !grown[corners[2]]) continue;
     changedTriangles.push_back(static_cast<Index>(t));
+    bvh.changedPrimitive[2][t] = 1;
     triangleBoxes[t] = sweptBox(triangleParticles(primitives, t), lower, upper,
                                 primitives.triangleRadius[t] + margin / 2);
   }
@@ -709,10 +715,13 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
 
   // Merged in (kind, first, second) order; a pair already in the set is kept once, and a pair of
   // a changed primitive whose boxes no longer overlap is dropped, so that the set stays the one a
-  // full broad phase over these boxes would give.
-  bvh.mergedKind.clear(), bvh.mergedFirst.clear(), bvh.mergedSecond.clear();
-  const auto keyOf = [&](std::size_t i) {
-    return std::tuple(pairs.kind[i], pairs.first[i], pairs.second[i]);
+  // full broad phase over these boxes would give. listOf: the list (points, edges, triangles) of
+  // a pair's first or second primitive.
+  const auto listOf = [](PairKind kind, bool first) {
+    if (kind == PairKind::VertexFace) return first ? 0 : 2;
+    if (kind == PairKind::EdgeEdge) return 1;
+    if (kind == PairKind::VertexEdge) return first ? 0 : 1;
+    return 0;
   };
   const auto boxOf = [&](PairKind kind, bool first, Index i) -> PrimitiveBox {
     const bool point = first ? kind != PairKind::EdgeEdge : kind == PairKind::VertexVertex;
@@ -724,48 +733,100 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     if (!first && kind == PairKind::VertexFace) return triangleBoxes[i];
     return edgeBoxes[i];
   };
-  const auto stale = [&](std::size_t i) {
-    const PairKind kind = pairs.kind[i];
-    bool changed = false;
-    for (Index particle : particlesOf(primitives, kind, true, pairs.first[i]))
-      changed |= grown[particle] != 0;
-    for (Index particle : particlesOf(primitives, kind, false, pairs.second[i]))
-      changed |= grown[particle] != 0;
-    return changed &&
-           !overlaps(boxOf(kind, true, pairs.first[i]), boxOf(kind, false, pairs.second[i]));
-  };
-  bvh.stalePair.resize(pairs.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.size(), kPairGrain),
+  const std::size_t old = pairs.size();
+  bvh.stalePair.resize(old);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, old, kPairGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i)
-                        bvh.stalePair[i] = stale(i) ? 1 : 0;
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        const PairKind kind = pairs.kind[i];
+                        const Index a = pairs.first[i], b = pairs.second[i];
+                        const bool changed = bvh.changedPrimitive[listOf(kind, true)][a] != 0 ||
+                                             bvh.changedPrimitive[listOf(kind, false)][b] != 0;
+                        bvh.stalePair[i] =
+                            changed && !overlaps(boxOf(kind, true, a), boxOf(kind, false, b));
+                      }
                     });
-  std::size_t copied = 0;
-  pairs.formerIndex.clear();
-  const auto copyUpTo = [&](std::size_t end) {
-    for (std::size_t i = copied; i < end; ++i) {
-      if (bvh.stalePair[i]) continue;
-      pairs.formerIndex.push_back(static_cast<Index>(i));
-      bvh.mergedKind.push_back(pairs.kind[i]);
-      bvh.mergedFirst.push_back(pairs.first[i]);
-      bvh.mergedSecond.push_back(pairs.second[i]);
-    }
-    copied = end;
+  // Each new pair's place among the old ones (bisection), the old pairs kept per chunk, then
+  // every chunk writes its old pairs and the new ones placed among them on its own.
+  const auto keyOf = [&](std::size_t i) {
+    return std::tuple(pairs.kind[i], pairs.first[i], pairs.second[i]);
   };
-  for (std::size_t kind = 0; kind < 4; ++kind)
-    for (const std::uint64_t key : bvh.newPairs[kind]) {
-      const auto pair = std::tuple(static_cast<PairKind>(kind), static_cast<Index>(key >> 32),
-                                   static_cast<Index>(key & 0xffffffffu));
-      // The first old pair not below the new one.
-      const std::size_t low = firstNotBelow(keyOf, copied, pairs.size(), pair);
-      copyUpTo(low);
-      if (low < pairs.size() && keyOf(low) == pair) continue;  // already a pair, kept
-      pairs.formerIndex.push_back(CandidatePairs::kNewPair);
-      bvh.mergedKind.push_back(std::get<0>(pair));
-      bvh.mergedFirst.push_back(std::get<1>(pair));
-      bvh.mergedSecond.push_back(std::get<2>(pair));
+  constexpr std::size_t kDuplicate = ~std::size_t{0};
+  std::vector<std::size_t>& place = bvh.newPairPlace;
+  place.resize(bvh.newPairs[0].size() + bvh.newPairs[1].size() + bvh.newPairs[2].size() +
+               bvh.newPairs[3].size());
+  {
+    std::size_t j = 0;
+    for (std::size_t kind = 0; kind < 4; ++kind) {
+      const std::vector<std::uint64_t>& list = bvh.newPairs[kind];
+      const std::size_t base = j;
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, list.size(), 256),
+                        [&](const tbb::blocked_range<std::size_t>& r) {
+                          for (std::size_t k = r.begin(); k != r.end(); ++k) {
+                            const auto pair = std::tuple(static_cast<PairKind>(kind),
+                                                         static_cast<Index>(list[k] >> 32),
+                                                         static_cast<Index>(list[k] & 0xffffffffu));
+                            const std::size_t low = firstNotBelow(keyOf, 0, old, pair);
+                            place[base + k] = low < old && keyOf(low) == pair ? kDuplicate : low;
+                          }
+                        });
+      j += list.size();
     }
-  copyUpTo(pairs.size());
+  }
+  const std::size_t chunks = old / kPairGrain + 1;
+  bvh.keptBefore.assign(chunks + 1, 0);
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t chunk) {
+    std::size_t kept = 0;
+    for (std::size_t i = chunk * kPairGrain; i < std::min(old, (chunk + 1) * kPairGrain); ++i)
+      kept += !bvh.stalePair[i];
+    bvh.keptBefore[chunk + 1] = kept;
+  });
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk)
+    bvh.keptBefore[chunk + 1] += bvh.keptBefore[chunk];
+  // The new pairs placed before each chunk's first old pair (the places ascend with the pairs;
+  // duplicates take no place), found by bisection over the non-duplicate places.
+  std::vector<std::size_t>& added = bvh.newPairPlace;     // compacted in place: no duplicates
+  std::vector<std::size_t>& newIndex = bvh.newPairIndex;  // which new pair each place is
+  newIndex.clear();
+  {
+    std::size_t w = 0;
+    for (std::size_t k = 0; k < added.size(); ++k)
+      if (added[k] != kDuplicate) newIndex.push_back(k), added[w++] = added[k];
+    added.resize(w);
+  }
+  const std::size_t total = bvh.keptBefore[chunks] + added.size();
+  bvh.mergedKind.resize(total), bvh.mergedFirst.resize(total), bvh.mergedSecond.resize(total);
+  pairs.formerIndex.resize(total);
+  // The new pairs of all kinds in one list, in order: kind by kind, each kind's keys ascending.
+  const auto newPair = [&](std::size_t k) {
+    std::size_t kind = 0;
+    while (k >= bvh.newPairs[kind].size()) k -= bvh.newPairs[kind].size(), ++kind;
+    const std::uint64_t key = bvh.newPairs[kind][k];
+    return std::tuple(static_cast<PairKind>(kind), static_cast<Index>(key >> 32),
+                      static_cast<Index>(key & 0xffffffffu));
+  };
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t chunk) {
+    const std::size_t begin = chunk * kPairGrain, end = std::min(old, (chunk + 1) * kPairGrain);
+    // New pairs placed at begin … end − 1 (and, for the last chunk, at old: after every pair).
+    std::size_t k = static_cast<std::size_t>(std::lower_bound(added.begin(), added.end(), begin) -
+                                             added.begin());
+    std::size_t out = bvh.keptBefore[chunk] + k;
+    const std::size_t stop = chunk + 1 == chunks ? old + 1 : end;
+    const auto writeNew = [&](std::size_t at) {
+      for (; k < added.size() && added[k] == at; ++k, ++out) {
+        const auto [kind, first, second] = newPair(newIndex[k]);
+        bvh.mergedKind[out] = kind, bvh.mergedFirst[out] = first, bvh.mergedSecond[out] = second;
+        pairs.formerIndex[out] = CandidatePairs::kNewPair;
+      }
+    };
+    for (std::size_t i = begin; i < stop; ++i) {
+      writeNew(i);
+      if (i == old || bvh.stalePair[i]) continue;
+      bvh.mergedKind[out] = pairs.kind[i], bvh.mergedFirst[out] = pairs.first[i];
+      bvh.mergedSecond[out] = pairs.second[i];
+      pairs.formerIndex[out++] = static_cast<Index>(i);
+    }
+  });
   pairs.kind.swap(bvh.mergedKind);
   pairs.first.swap(bvh.mergedFirst);
   pairs.second.swap(bvh.mergedSecond);
