@@ -130,7 +130,8 @@ void StepGraph::runStage(int stage) {
         const Real slack = boundSlack(s.primitives, kPrimitiveContactMargin);
         pairs.frameSubstep = c.substep;
         const bool carried =
-            c.substep > 0 || carryPairsIntoStep(pairs, particles.x, particles.p, c.substeps, slack);
+            c.substep > 0 || carryPairsIntoStep(pairs, particles.x, particles.p, particles.w,
+                                                s.gravity, c.h, c.substeps, slack);
         if (carried && withinParticleBounds(pairs, particles.p)) {
           if (c.substep == 0) ++report.keptPairSets;
           return;

@@ -400,7 +400,8 @@ void predictMotionEnd(std::vector<Vec3>& end, std::span<const Vec3> x, std::span
 }
 
 void setMotionFrame(CandidatePairs& pairs, std::span<const Vec3> x, std::span<const Vec3> p,
-                    std::span<const Real> w, const Vec3& g, Real h, int substep, int substeps) {
+                    std::span<const Real> w, const Vec3& g, Real h, int substep, int substeps,
+                    const Vec3& base) {
   // The per-axis median of the free particles' finite motions: an nth_element over a copy, the
   // same whatever the thread count.
   Vec3 median = Vec3::Zero();
@@ -416,11 +417,10 @@ void setMotionFrame(CandidatePairs& pairs, std::span<const Vec3> x, std::span<co
     std::nth_element(values.begin(), middle, values.end());
     median[axis] = *middle;
   }
-  pairs.frameOrigin.assign(static_cast<std::size_t>(std::max(substeps, substep + 1)) + 1,
-                           Vec3::Zero());
+  pairs.frameOrigin.assign(static_cast<std::size_t>(std::max(substeps, substep + 1)) + 1, base);
   for (std::size_t k = static_cast<std::size_t>(substep) + 1; k < pairs.frameOrigin.size(); ++k) {
     const Real j = static_cast<Real>(k - static_cast<std::size_t>(substep));
-    pairs.frameOrigin[k] = j * median + (j * (j - 1) / 2 * h * h) * g;
+    pairs.frameOrigin[k] = base + (j * median + (j * (j - 1) / 2 * h * h) * g);
   }
   pairs.frameSubstep = substep;
 }
@@ -486,12 +486,13 @@ bool withinParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p) 
 }
 
 bool carryPairsIntoStep(CandidatePairs& pairs, std::span<const Vec3> x, std::span<const Vec3> p,
-                        int substeps, Real slack) {
+                        std::span<const Real> w, const Vec3& g, Real h, int substeps, Real slack) {
   const std::size_t n = x.size();
   if (pairs.boundLower.size() != n || pairs.motionLower.size() != n || n == 0) return false;
+  // The frame goes on from where the last step's ended, with this step's median motion.
   const Vec3 held = pairs.frameOrigin.empty() ? Vec3::Zero() : pairs.frameOrigin.back();
-  pairs.frameOrigin.assign(static_cast<std::size_t>(std::max(substeps, 1)) + 1, held);
-  pairs.frameSubstep = 0;
+  setMotionFrame(pairs, x, p, w, g, h, 0, std::max(substeps, 1), held);
+  const Vec3 common = pairs.frameAt(1) - held;
   struct Tally {
     std::size_t outside = 0;
     double bounds = 0, needed = 0;
@@ -502,7 +503,7 @@ bool carryPairsIntoStep(CandidatePairs& pairs, std::span<const Vec3> x, std::spa
       [&](const tbb::blocked_range<std::size_t>& r, Tally sum) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
           sum.outside += outsideBounds(pairs, x[i], held, i);
-          const Vec3 motion = (p[i] - x[i]).cwiseAbs() * static_cast<Real>(substeps);
+          const Vec3 motion = (p[i] - x[i] - common).cwiseAbs() * static_cast<Real>(substeps);
           if (!motion.allFinite()) continue;  // left to the search and the update's repair
           sum.bounds += double((pairs.boundUpper[i] - pairs.boundLower[i]).sum());
           sum.needed += double(motion.sum()) + 6 * double(slack);

@@ -89,9 +89,11 @@ void predictMotionEnd(std::vector<Vec3>& end, std::span<const Vec3> x, std::span
 // motion relative to one another (a cloth falling edge-first moves in its own plane, and its
 // swept boxes in the world reach several rings of neighbours). The per-axis median minimises the
 // summed extents of the motion boxes, and one fast particle does not move it. The boundaries up
-// to `substep` get offset zero, so positions at the substep's start need no shift.
+// to `substep` get offset `base` (zero for a new search: positions at the substep's start need no
+// shift), the later ones `base` plus the extrapolated motion.
 void setMotionFrame(CandidatePairs& pairs, std::span<const Vec3> x, std::span<const Vec3> p,
-                    std::span<const Real> w, const Vec3& g, Real h, int substep, int substeps);
+                    std::span<const Real> w, const Vec3& g, Real h, int substep, int substeps,
+                    const Vec3& base = Vec3::Zero());
 
 // Each particle's motion box, into pairs.motionLower/motionUpper: the box of its positions in
 // `start` and `end`, each taken in the frame (less the frame's offset at its instant).
@@ -141,16 +143,17 @@ std::size_t countOutsideParticleBounds(const CandidatePairs& pairs, std::span<co
 bool withinParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p);
 
 // Whether a new step may start from the last step's pairs (at its first substep, before any
-// search): the frame is held where the last step's ended (every boundary of the new step at that
-// offset), every particle's position x at the step's start lies within its bounds, and the bounds
-// are not loose: their summed extents are at most kLooseBounds times those a new search would
-// give (|p − x| over the step's `substeps` plus twice `slack`, per axis), so that a cloth come to
-// rest does not keep the larger pair set of its fall. The caller then checks p as at any substep:
-// within the bounds the set is complete, and few particles outside extend it. False when there
-// are no bounds for these particles.
+// search): the frame goes on from where the last step's ended with this step's median motion
+// (setMotionFrame with that base), every particle's position x at the step's start lies within
+// its bounds, and the bounds are not loose: their summed extents are at most kLooseBounds times
+// those a new search would give (|p − x − m| over the step's `substeps` plus twice `slack`, per
+// axis, m the frame's motion over a substep), so that a cloth come to rest does not keep the
+// larger pair set of its fall. The caller then checks p as at any substep: within the bounds the
+// set is complete, and few particles outside extend it. A cloth falling or at rest as a whole
+// keeps its pairs from step to step. False when there are no bounds for these particles.
 constexpr Real kLooseBounds = 2;
 bool carryPairsIntoStep(CandidatePairs& pairs, std::span<const Vec3> x, std::span<const Vec3> p,
-                        int substeps, Real slack);
+                        std::span<const Real> w, const Vec3& g, Real h, int substeps, Real slack);
 
 // Position `p` of particle i at the end of the substep in progress, moved to the nearest point
 // inside its bounds: the point that countOutsideParticleBounds then counts as inside.
