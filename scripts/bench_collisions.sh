@@ -14,7 +14,7 @@ cd "$(dirname "$0")/.."
 binary=${1:-build/nucleon}
 out=${2:-bench/results/2core-AMD-EPYC/collision_scenes.csv}
 label=${3:-current}
-scenes=(cloth_self cloth_drop_sphere bullet_cloth rope_pile cloth_twist kinematic_spin)
+scenes=(cloth_self cloth_drop_sphere bullet_cloth rope_pile cloth_twist kinematic_spin cloth_free_fall)
 stats=$(mktemp)
 trap 'rm -f "$stats"' EXIT
 

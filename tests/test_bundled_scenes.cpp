@@ -55,9 +55,9 @@ TEST_P(EveryBundledScene, RunsWithoutRepairsOrNonFiniteValues) {
   // at any frame end (the exact checker). Scenes without self-collision (a hanging cloth may
   // fold through itself) are not held to it.
   EXPECT_EQ(j.at("collisions").at("unresolved_pairs").get<long long>(), 0);
-  const std::vector<std::string> collisionScenes = {"bullet_cloth",   "cloth_drop_sphere",
-                                                    "cloth_self",     "cloth_twist",
-                                                    "kinematic_spin", "rope_pile"};
+  const std::vector<std::string> collisionScenes = {
+      "bullet_cloth", "cloth_drop_sphere", "cloth_free_fall", "cloth_self",
+      "cloth_twist",  "kinematic_spin",    "rope_pile"};
   if (std::find(collisionScenes.begin(), collisionScenes.end(), GetParam()) !=
       collisionScenes.end()) {
     for (const nlohmann::json& frame : j.at("per_frame"))
