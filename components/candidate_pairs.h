@@ -29,6 +29,21 @@ namespace nucleon {
 
 enum class PairKind : std::uint8_t { VertexFace, EdgeEdge, VertexEdge, VertexVertex };
 
+// Which CollisionPrimitives list a pair's first or second primitive indexes: 0 points, 1 edges,
+// 2 triangles (per-primitive data kept as three arrays in that order).
+constexpr int primitiveListOf(PairKind kind, bool first) {
+  switch (kind) {
+    case PairKind::VertexFace:
+      return first ? 0 : 2;
+    case PairKind::EdgeEdge:
+      return 1;
+    case PairKind::VertexEdge:
+      return first ? 0 : 1;
+    default:
+      return 0;
+  }
+}
+
 struct CandidatePairs {
   std::vector<PairKind> kind;
   std::vector<Index> first;

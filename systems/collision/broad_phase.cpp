@@ -716,14 +716,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
 
   // Merged in (kind, first, second) order; a pair already in the set is kept once, and a pair of
   // a changed primitive whose boxes no longer overlap is dropped, so that the set stays the one a
-  // full broad phase over these boxes would give. listOf: the list (points, edges, triangles) of
-  // a pair's first or second primitive.
-  const auto listOf = [](PairKind kind, bool first) {
-    if (kind == PairKind::VertexFace) return first ? 0 : 2;
-    if (kind == PairKind::EdgeEdge) return 1;
-    if (kind == PairKind::VertexEdge) return first ? 0 : 1;
-    return 0;
-  };
+  // full broad phase over these boxes would give.
   const auto boxOf = [&](PairKind kind, bool first, Index i) -> PrimitiveBox {
     const bool point = first ? kind != PairKind::EdgeEdge : kind == PairKind::VertexVertex;
     if (point) {
@@ -736,24 +729,24 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   };
   const std::size_t old = pairs.size();
   bvh.stalePair.resize(old);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, old, kPairGrain),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        const PairKind kind = pairs.kind[i];
-                        const Index a = pairs.first[i], b = pairs.second[i];
-                        const bool changed = bvh.changedPrimitive[listOf(kind, true)][a] != 0 ||
-                                             bvh.changedPrimitive[listOf(kind, false)][b] != 0;
-                        bvh.stalePair[i] =
-                            changed && !overlaps(boxOf(kind, true, a), boxOf(kind, false, b));
-                      }
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, old, kPairGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const PairKind kind = pairs.kind[i];
+          const Index a = pairs.first[i], b = pairs.second[i];
+          const bool changed = bvh.changedPrimitive[primitiveListOf(kind, true)][a] != 0 ||
+                               bvh.changedPrimitive[primitiveListOf(kind, false)][b] != 0;
+          bvh.stalePair[i] = changed && !overlaps(boxOf(kind, true, a), boxOf(kind, false, b));
+        }
+      });
   // Each new pair's place among the old ones (bisection), the old pairs kept per chunk, then
   // every chunk writes its old pairs and the new ones placed among them on its own.
   const auto keyOf = [&](std::size_t i) {
     return std::tuple(pairs.kind[i], pairs.first[i], pairs.second[i]);
   };
   constexpr std::size_t kDuplicate = ~std::size_t{0};
-  std::vector<std::size_t>& place = bvh.newPairPlace;
+  std::vector<std::size_t>& place = bvh.newPairPlace;  // per new pair, all kinds in order
   place.resize(bvh.newPairs[0].size() + bvh.newPairs[1].size() + bvh.newPairs[2].size() +
                bvh.newPairs[3].size());
   {
@@ -784,17 +777,17 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   });
   for (std::size_t chunk = 0; chunk < chunks; ++chunk)
     bvh.keptBefore[chunk + 1] += bvh.keptBefore[chunk];
-  // The new pairs placed before each chunk's first old pair (the places ascend with the pairs;
-  // duplicates take no place), found by bisection over the non-duplicate places.
-  std::vector<std::size_t>& added = bvh.newPairPlace;     // compacted in place: no duplicates
+  // The places compacted over the pairs that are not duplicates (they ascend with the pairs), so
+  // that a chunk finds the new pairs placed before its first old pair by bisection.
   std::vector<std::size_t>& newIndex = bvh.newPairIndex;  // which new pair each place is
   newIndex.clear();
   {
-    std::size_t w = 0;
-    for (std::size_t k = 0; k < added.size(); ++k)
-      if (added[k] != kDuplicate) newIndex.push_back(k), added[w++] = added[k];
-    added.resize(w);
+    std::size_t kept = 0;
+    for (std::size_t k = 0; k < place.size(); ++k)
+      if (place[k] != kDuplicate) newIndex.push_back(k), place[kept++] = place[k];
+    place.resize(kept);
   }
+  const std::vector<std::size_t>& added = place;
   const std::size_t total = bvh.keptBefore[chunks] + added.size();
   bvh.mergedKind.resize(total), bvh.mergedFirst.resize(total), bvh.mergedSecond.resize(total);
   pairs.formerIndex.resize(total);

@@ -456,20 +456,6 @@ Vec3d meanMotion(const ParticlePool& particles, std::vector<Vec3d>& sums,
   return count > 0 ? Vec3d(sum / double(count)) : Vec3d::Zero();
 }
 
-// The list (0 points, 1 edges, 2 triangles) of a pair's first or second primitive.
-constexpr int primitiveList(PairKind kind, bool first) {
-  switch (kind) {
-    case PairKind::VertexFace:
-      return first ? 0 : 2;
-    case PairKind::EdgeEdge:
-      return 1;
-    case PairKind::VertexEdge:
-      return first ? 0 : 1;
-    default:
-      return 0;
-  }
-}
-
 // out[list][i]: `valueOf` of the particles of primitive i of each list.
 template <class T, class ValueOf>
 void gatherPerPrimitive(std::array<std::vector<T>, 3>& out, const CollisionPrimitives& prims,
@@ -755,7 +741,7 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
             const Index a = candidates.first[i], b = candidates.second[i];
             if (carry && contacts.lowerBound[i] > -kInfinity) {
               // Also a lower bound on the distance at the start of the substep.
-              const int listA = primitiveList(kind, true), listB = primitiveList(kind, false);
+              const int listA = primitiveListOf(kind, true), listB = primitiveListOf(kind, false);
               const double over = contacts.lowerBound[i] - strayOf[listA][a] - strayOf[listB][b];
               const Real radius = radii[listA][a] + radii[listB][b];
               if (over > double(radius) + double(kPrimitiveContactMargin) + kBoundTolerance) {
@@ -964,7 +950,7 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
           for (std::size_t i = r.begin(); i != r.end(); ++i) {
             const PairKind kind = candidates.kind[i];
             const Index a = candidates.first[i], b = candidates.second[i];
-            const int listA = primitiveList(kind, true), listB = primitiveList(kind, false);
+            const int listA = primitiveListOf(kind, true), listB = primitiveListOf(kind, false);
             if (round > 0 && !contacts.suspect[i] && !moved[listA][a] && !moved[listB][b]) continue;
             contacts.suspect[i] = 0;
             if (round == 0 && bounded &&
