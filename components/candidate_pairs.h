@@ -12,8 +12,8 @@
 // No pair shares a particle, none joins two objects whose pair is excluded, and none has only
 // particles of inverse mass 0 (two kinematic or pinned primitives cannot respond).
 //
-// The set is complete only while every particle stays inside its bounds (boundLower, boundUpper):
-// the box of the motion the pairs were found for, grown by less than the primitives' boxes were.
+// The set is complete only while every particle stays inside its bounds: within boundSlack of the
+// straight path the pairs were found for, less than the primitives' boxes were grown by.
 // Boxes and bounds are kept in a frame that follows the particles' common motion (frameOrigin).
 // Two primitives whose particles stay inside their bounds and that are not a pair cannot come
 // within their contact distance. The solve clamps free particles into their bounds; a substep
@@ -49,13 +49,20 @@ struct CandidatePairs {
   std::vector<Index> first;
   std::vector<Index> second;
 
-  // Per particle: the box of the motion the pairs were found for (the primitives' boxes cover
-  // their particles' motion boxes), and where it must stay for the set to be complete: the
-  // motion box grown by the bound slack (broad_phase.h, boundSlack).
+  // Per particle, in the frame (frameOrigin): the straight path the pairs were found for, from
+  // pathStart at substep boundary pathFrom to pathEnd at boundary pathTo, and held at pathEnd
+  // after it; the particle must stay within boundSlack of its path's point at every boundary
+  // (pathPoint) for the set to be complete. The boxes of the primitives move along their
+  // particles' paths over that window, and two primitives are a pair only if their moving boxes
+  // meet at some instant of it: neighbours that move together are not paired however far they
+  // move (broad_phase.h). motionLower/motionUpper are the boxes of the paths.
+  std::vector<Vec3> pathStart;
+  std::vector<Vec3> pathEnd;
+  int pathFrom = 0;
+  int pathTo = 1;
+  Real boundSlack = 0;
   std::vector<Vec3> motionLower;
   std::vector<Vec3> motionUpper;
-  std::vector<Vec3> boundLower;
-  std::vector<Vec3> boundUpper;
   // Scratch: the end of each particle's extrapolated motion (predictMotionEnd).
   std::vector<Vec3> motionEnd;
   // The frame the motion boxes and bounds are in (broad_phase.h, setMotionFrame): its offset from
@@ -84,6 +91,18 @@ struct CandidatePairs {
     return boundary >= 0 && static_cast<std::size_t>(boundary) < frameOrigin.size()
                ? frameOrigin[static_cast<std::size_t>(boundary)]
                : Vec3::Zero();
+  }
+  // Where particle i's path is at substep boundary k: linear between pathFrom and pathTo,
+  // held before and after.
+  Vec3 pathPoint(std::size_t i, int boundary) const {
+    if (pathTo <= pathFrom || boundary >= pathTo) return pathEnd[i];
+    if (boundary <= pathFrom) return pathStart[i];
+    const Real t = Real(boundary - pathFrom) / Real(pathTo - pathFrom);
+    return pathStart[i] + t * (pathEnd[i] - pathStart[i]);
+  }
+  // The step's last boundary (1 with no frame set).
+  int lastBoundary() const {
+    return frameOrigin.size() > 1 ? static_cast<int>(frameOrigin.size()) - 1 : 1;
   }
   // The offsets at the start and at the end of the substep in progress.
   Vec3 startOffset() const { return frameAt(frameSubstep); }

@@ -129,10 +129,11 @@ void StepGraph::runStage(int stage) {
         const ParticlePool& particles = s.particles;
         const Real slack = boundSlack(s.primitives, kPrimitiveContactMargin);
         pairs.frameSubstep = c.substep;
+        std::size_t outsideAtStart = 0;
         const bool carried =
-            c.substep > 0 || carryPairsIntoStep(pairs, particles.x, particles.p, particles.w,
-                                                s.gravity, c.h, c.substeps, slack);
-        if (carried && withinParticleBounds(pairs, particles.p)) {
+            c.substep > 0 || carryPairsIntoStep(pairs, s.bvh, particles.x, particles.p, particles.w,
+                                                s.gravity, c.h, c.substeps, slack, outsideAtStart);
+        if (carried && outsideAtStart == 0 && withinParticleBounds(pairs, particles.p)) {
           if (c.substep == 0) ++report.keptPairSets;
           return;
         }
@@ -145,7 +146,8 @@ void StepGraph::runStage(int stage) {
           if (extendCandidatePairs(
                   pairs, s.bvh, s.primitives, particles.p, particles.x, pairs.motionEnd,
                   particles.w, kPrimitiveContactMargin, slack,
-                  {pairs.endOffset(), pairs.startOffset(), pairs.frameAt(c.substeps)})) {
+                  {pairs.endOffset(), pairs.startOffset(), pairs.frameAt(c.substeps), c.substep + 1,
+                   c.substep, c.substeps})) {
             ++report.incrementalBroadPhases;
             return;
           }
@@ -154,10 +156,9 @@ void StepGraph::runStage(int stage) {
         setMotionFrame(pairs, particles.x, particles.p, particles.w, s.gravity, c.h, c.substep,
                        c.substeps);
         setMotionBounds(pairs, particles.x, pairs.motionEnd, Vec3::Zero(),
-                        pairs.frameAt(c.substeps));
-        // A primitive's box is the box of its particles' motion boxes, which are the two corners.
-        findCandidatePairs(pairs, s.bvh, s.primitives, pairs.motionLower, pairs.motionUpper,
-                           particles.w, kPrimitiveContactMargin);
+                        pairs.frameAt(c.substeps), c.substep, c.substeps);
+        findCandidatePairs(pairs, s.bvh, s.primitives, pairs.pathStart, pairs.pathEnd, particles.w,
+                           kPrimitiveContactMargin);
         growParticleBounds(pairs, slack);
       });
       profile.narrowPhase += timed([&] {

@@ -23,6 +23,24 @@ namespace {
 constexpr double kMaxCoordinate = 1e18;
 constexpr std::size_t kBoxGrain = 2048;
 constexpr std::size_t kPairGrain = 4096;
+constexpr auto kTriangleTree = static_cast<std::size_t>(BvhTree::Triangles);
+constexpr auto kEdgeTree = static_cast<std::size_t>(BvhTree::Edges);
+constexpr auto kIsolatedTree = static_cast<std::size_t>(BvhTree::IsolatedPoints);
+constexpr auto kPointTree = static_cast<std::size_t>(BvhTree::Points);
+
+// The box a fraction t of the way from `a` to `b`, rounded outward to float.
+PrimitiveBox boxBetween(const PrimitiveBox& a, const PrimitiveBox& b, double t) {
+  if (a.isEmpty() || b.isEmpty()) return PrimitiveBox::empty();
+  constexpr float kInfinite = std::numeric_limits<float>::infinity();
+  PrimitiveBox box;
+  for (int k = 0; k < 3; ++k) {
+    const double lower = (1 - t) * a.lower[k] + t * b.lower[k];
+    const double upper = (1 - t) * a.upper[k] + t * b.upper[k];
+    box.lower[k] = std::nextafter(static_cast<float>(lower), -kInfinite);
+    box.upper[k] = std::nextafter(static_cast<float>(upper), kInfinite);
+  }
+  return box;
+}
 
 using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point start) {
@@ -39,20 +57,52 @@ std::span<const Index> triangleParticles(const CollisionPrimitives& primitives, 
   return primitives.triangleParticles[i];
 }
 
-// The swept box of each primitive of one kind into `boxes`; returns how many are empty.
+// The box of two boxes; empty if either is (a primitive skipped at one end is skipped).
+PrimitiveBox hullOf(const PrimitiveBox& a, const PrimitiveBox& b) {
+  if (a.isEmpty() || b.isEmpty()) return PrimitiveBox::empty();
+  PrimitiveBox box;
+  for (int k = 0; k < 3; ++k) {
+    box.lower[k] = std::min(a.lower[k], b.lower[k]);
+    box.upper[k] = std::max(a.upper[k], b.upper[k]);
+  }
+  return box;
+}
+
+// A primitive's moving box over its particles' paths start → end: the box at each end, and the
+// box of both, which its tree holds.
+struct MovingBox {
+  PrimitiveBox start, end, swept;
+};
+MovingBox movingBoxOf(std::span<const Index> ids, std::span<const Vec3> start,
+                      std::span<const Vec3> end, Real inflation) {
+  MovingBox box;
+  box.start = sweptBox(ids, start, start, inflation);
+  box.end = sweptBox(ids, end, end, inflation);
+  box.swept = hullOf(box.start, box.end);
+  return box;
+}
+
+// The moving box of each primitive of one kind into the tree's boxes; returns how many are empty.
 template <class Particles>
-std::size_t computeBoxes(std::vector<PrimitiveBox>& boxes, std::size_t count,
+std::size_t computeBoxes(PrimitiveBvh& bvh, BvhTree tree, std::size_t count,
                          const CollisionPrimitives& primitives, const std::vector<Real>& radius,
                          Particles particlesOf, std::span<const Vec3> x, std::span<const Vec3> p,
                          Real margin) {
-  boxes.resize(count);
+  const auto t = static_cast<std::size_t>(tree);
+  bvh.boxes[t].resize(count);
+  bvh.startBoxes[t].resize(count);
+  bvh.endBoxes[t].resize(count);
   // Integer sums: the same total for any partitioning.
   return tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, count, kBoxGrain), std::size_t{0},
       [&](const tbb::blocked_range<std::size_t>& r, std::size_t empty) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          boxes[i] = sweptBox(particlesOf(primitives, i), x, p, radius[i] + margin / 2);
-          empty += boxes[i].isEmpty();
+          const MovingBox box =
+              movingBoxOf(particlesOf(primitives, i), x, p, radius[i] + margin / 2);
+          bvh.boxes[t][i] = box.swept;
+          bvh.startBoxes[t][i] = box.start;
+          bvh.endBoxes[t][i] = box.end;
+          empty += box.swept.isEmpty();
         }
         return empty;
       },
@@ -95,6 +145,8 @@ struct PairFilter {
   const Index* isolatedPoints;  // tree primitive → point, for the IsolatedPoints tree
   ThreadPairs found;
   std::vector<std::vector<std::uint64_t>>* staging;  // per arena thread, as found.lists
+  // The two trees' moving boxes, by tree primitive.
+  const PrimitiveBox *startA, *endA, *startB, *endB;
 };
 
 constexpr std::size_t kStagedPairs = 4096;
@@ -161,6 +213,7 @@ void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
   std::uint64_t kept[kBatch];
   std::size_t keptCount = 0;
   for (std::size_t k = 0; k < count; ++k) {
+    if (!meetInMotion(f.startA[a[k]], f.endA[a[k]], f.startB[b[k]], f.endB[b[k]])) continue;
     Index first = a[k], second = b[k];
     // The IsolatedPoints tree's primitives map to points; they ascend, so first < second holds.
     if constexpr (kKind == PairKind::VertexEdge || kKind == PairKind::VertexVertex)
@@ -321,28 +374,25 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
   BroadPhaseStats stats;
   const std::size_t points = primitives.points(), edges = primitives.edges(),
                     triangles = primitives.triangles();
-  auto& triangleBoxes = bvh.treeBoxes(BvhTree::Triangles);
-  auto& edgeBoxes = bvh.treeBoxes(BvhTree::Edges);
-  auto& isolatedBoxes = bvh.treeBoxes(BvhTree::IsolatedPoints);
-  auto& pointBoxes = bvh.treeBoxes(BvhTree::Points);
-
   // Boxes.
   Clock::time_point start = Clock::now();
   stats.skippedPrimitives =
-      computeBoxes(pointBoxes, points, primitives, primitives.pointRadius, pointParticles, x, p,
-                   margin) +
-      computeBoxes(edgeBoxes, edges, primitives, primitives.edgeRadius, edgeParticles, x, p,
-                   margin) +
-      computeBoxes(triangleBoxes, triangles, primitives, primitives.triangleRadius,
+      computeBoxes(bvh, BvhTree::Points, points, primitives, primitives.pointRadius, pointParticles,
+                   x, p, margin) +
+      computeBoxes(bvh, BvhTree::Edges, edges, primitives, primitives.edgeRadius, edgeParticles, x,
+                   p, margin) +
+      computeBoxes(bvh, BvhTree::Triangles, triangles, primitives, primitives.triangleRadius,
                    triangleParticles, x, p, margin);
   bvh.isolatedPoints.clear();
   for (std::size_t i = 0; i < points; ++i)
     if (primitives.pointIsolated[i]) bvh.isolatedPoints.push_back(static_cast<Index>(i));
-  isolatedBoxes.resize(bvh.isolatedPoints.size());
-  for (std::size_t k = 0; k < bvh.isolatedPoints.size(); ++k)
-    isolatedBoxes[k] = pointBoxes[bvh.isolatedPoints[k]];
-  // Every point's box is needed only against triangles.
-  if (triangles == 0) pointBoxes.clear();
+  for (auto* list : {&bvh.boxes, &bvh.startBoxes, &bvh.endBoxes}) {
+    (*list)[kIsolatedTree].resize(bvh.isolatedPoints.size());
+    for (std::size_t k = 0; k < bvh.isolatedPoints.size(); ++k)
+      (*list)[kIsolatedTree][k] = (*list)[kPointTree][bvh.isolatedPoints[k]];
+    // Every point's box is needed only against triangles.
+    if (triangles == 0) (*list)[kPointTree].clear();
+  }
   stats.boxSeconds = secondsSince(start);
 
   // Trees.
@@ -359,8 +409,15 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
   prepareThreadPairs(bvh.threadPairs);
   std::mutex overflowLock;
   prepareStaging(bvh.threadStaging, bvh.threadPairs.size());
-  PairFilter filter{&primitives, w.data(), bvh.isolatedPoints.data(),
-                    ThreadPairs{&bvh.threadPairs, &overflowLock}, &bvh.threadStaging};
+  PairFilter filter{&primitives,
+                    w.data(),
+                    bvh.isolatedPoints.data(),
+                    ThreadPairs{&bvh.threadPairs, &overflowLock},
+                    &bvh.threadStaging,
+                    nullptr,
+                    nullptr,
+                    nullptr,
+                    nullptr};
   struct Traversal {
     PairKind kind;
     BvhTree a, b;
@@ -375,6 +432,10 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
        &keepPairs<PairKind::VertexVertex>},
   }};
   for (const Traversal& t : traversals) {
+    filter.startA = bvh.startBoxes[static_cast<std::size_t>(t.a)].data();
+    filter.endA = bvh.endBoxes[static_cast<std::size_t>(t.a)].data();
+    filter.startB = bvh.startBoxes[static_cast<std::size_t>(t.b)].data();
+    filter.endB = bvh.endBoxes[static_cast<std::size_t>(t.b)].data();
     bvh.forEachOverlappingPair(t.a, t.b, t.keep, &filter);
     flushStaging(bvh.threadStaging, bvh.threadPairs);
     const std::size_t firsts = t.kind == PairKind::EdgeEdge ? edges : points;
@@ -426,13 +487,20 @@ void setMotionFrame(CandidatePairs& pairs, std::span<const Vec3> x, std::span<co
 }
 
 void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::span<const Vec3> end,
-                     const Vec3& startOffset, const Vec3& endOffset) {
+                     const Vec3& startOffset, const Vec3& endOffset, int from, int to,
+                     Real stretch) {
+  pairs.pathStart.resize(start.size());
+  pairs.pathEnd.resize(start.size());
   pairs.motionLower.resize(start.size());
   pairs.motionUpper.resize(start.size());
+  pairs.pathFrom = from;
+  pairs.pathTo = to;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, start.size(), kBoxGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        const Vec3 a = start[i] - startOffset, b = end[i] - endOffset;
+                        const Vec3 a = start[i] - startOffset;
+                        const Vec3 b = a + stretch * (end[i] - endOffset - a);
+                        pairs.pathStart[i] = a, pairs.pathEnd[i] = b;
                         pairs.motionLower[i] = a.cwiseMin(b);
                         pairs.motionUpper[i] = a.cwiseMax(b);
                       }
@@ -444,53 +512,61 @@ Real boundSlack(const CollisionPrimitives& primitives, Real margin) {
 }
 
 void growParticleBounds(CandidatePairs& pairs, Real slack) {
-  pairs.boundLower.resize(pairs.motionLower.size());
-  pairs.boundUpper.resize(pairs.motionUpper.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.boundLower.size(), kBoxGrain),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        pairs.boundLower[i] = pairs.motionLower[i].array() - slack;
-                        pairs.boundUpper[i] = pairs.motionUpper[i].array() + slack;
-                      }
-                    });
+  pairs.boundSlack = slack;
 }
 
 namespace {
 
-// Whether `position`, at the instant the frame is offset by `offset`, is outside particle i's
-// bounds. Written so that a non-finite coordinate does not count as outside.
+// Particle i's bounds at substep boundary k, in the frame.
+void boundsAt(const CandidatePairs& pairs, std::size_t i, int boundary, Vec3& lower, Vec3& upper) {
+  const Vec3 centre = pairs.pathPoint(i, boundary);
+  lower = centre.array() - pairs.boundSlack;
+  upper = centre.array() + pairs.boundSlack;
+}
+
+// Whether `position`, at substep boundary k where the frame is offset by `offset`, is outside
+// particle i's bounds. Written so that a non-finite coordinate does not count as outside.
 bool outsideBounds(const CandidatePairs& pairs, const Vec3& position, const Vec3& offset,
-                   std::size_t i) {
+                   int boundary, std::size_t i) {
+  Vec3 lower, upper;
+  boundsAt(pairs, i, boundary, lower, upper);
   const Vec3 inFrame = position - offset;
-  return (inFrame.array() < pairs.boundLower[i].array()).any() ||
-         (inFrame.array() > pairs.boundUpper[i].array()).any();
+  return (inFrame.array() < lower.array()).any() || (inFrame.array() > upper.array()).any();
+}
+
+bool hasBounds(const CandidatePairs& pairs, std::size_t n) {
+  return pairs.pathStart.size() == n && pairs.pathEnd.size() == n;
 }
 
 }  // namespace
 
 std::size_t countOutsideParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p) {
-  if (pairs.boundLower.size() != p.size()) return p.size();
+  if (!hasBounds(pairs, p.size())) return p.size();
   const Vec3 offset = pairs.endOffset();
+  const int boundary = pairs.frameSubstep + 1;
   return tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, p.size(), kBoxGrain), std::size_t{0},
       [&](const tbb::blocked_range<std::size_t>& r, std::size_t count) {
         for (std::size_t i = r.begin(); i != r.end(); ++i)
-          count += outsideBounds(pairs, p[i], offset, i);
+          count += outsideBounds(pairs, p[i], offset, boundary, i);
         return count;
       },
       std::plus<>());
 }
 
 bool withinParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p) {
-  return pairs.boundLower.size() == p.size() && countOutsideParticleBounds(pairs, p) == 0;
+  return hasBounds(pairs, p.size()) && countOutsideParticleBounds(pairs, p) == 0;
 }
 
-bool carryPairsIntoStep(CandidatePairs& pairs, std::span<const Vec3> x, std::span<const Vec3> p,
-                        std::span<const Real> w, const Vec3& g, Real h, int substeps, Real slack) {
+bool carryPairsIntoStep(CandidatePairs& pairs, PrimitiveBvh& bvh, std::span<const Vec3> x,
+                        std::span<const Vec3> p, std::span<const Real> w, const Vec3& g, Real h,
+                        int substeps, Real slack, std::size_t& outside) {
+  outside = 0;
   const std::size_t n = x.size();
-  if (pairs.boundLower.size() != n || pairs.motionLower.size() != n || n == 0) return false;
+  if (!hasBounds(pairs, n) || pairs.motionLower.size() != n || n == 0) return false;
   // The frame goes on from where the last step's ended, with this step's median motion.
   const Vec3 held = pairs.frameOrigin.empty() ? Vec3::Zero() : pairs.frameOrigin.back();
+  const int ended = pairs.pathTo;
   setMotionFrame(pairs, x, p, w, g, h, 0, std::max(substeps, 1), held);
   const Vec3 common = pairs.frameAt(1) - held;
   struct Tally {
@@ -502,10 +578,11 @@ bool carryPairsIntoStep(CandidatePairs& pairs, std::span<const Vec3> x, std::spa
       tbb::blocked_range<std::size_t>(0, n, kBoxGrain), Tally{},
       [&](const tbb::blocked_range<std::size_t>& r, Tally sum) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          sum.outside += outsideBounds(pairs, x[i], held, i);
+          // Held at the end of the last step's path.
+          sum.outside += outsideBounds(pairs, x[i], held, ended, i);
           const Vec3 motion = (p[i] - x[i] - common).cwiseAbs() * static_cast<Real>(substeps);
           if (!motion.allFinite()) continue;  // left to the search and the update's repair
-          sum.bounds += double((pairs.boundUpper[i] - pairs.boundLower[i]).sum());
+          sum.bounds += double((pairs.motionUpper[i] - pairs.motionLower[i]).sum()) + 6 * slack;
           sum.needed += double(motion.sum()) + 6 * double(slack);
         }
         return sum;
@@ -514,13 +591,30 @@ bool carryPairsIntoStep(CandidatePairs& pairs, std::span<const Vec3> x, std::spa
         a.outside += b.outside, a.bounds += b.bounds, a.needed += b.needed;
         return a;
       });
-  return tally.outside == 0 && tally.bounds <= double(kLooseBounds) * tally.needed;
+  // A few particles outside are found again by the caller's extension (it checks the start of
+  // the motion too); many are a new search's.
+  if (tally.outside * kExtendShare > n || tally.bounds > double(kLooseBounds) * tally.needed)
+    return false;
+  // The set holds over the rest of the last path's window and, each path held at its end, for
+  // ever after: the paths become points at their ends, the primitives' boxes their end boxes.
+  pairs.pathFrom = 0;
+  pairs.pathTo = std::max(substeps, 1);
+  pairs.pathStart = pairs.pathEnd;
+  pairs.motionLower = pairs.pathEnd;
+  pairs.motionUpper = pairs.pathEnd;
+  pairs.boundSlack = slack;
+  for (std::size_t tree = 0; tree < kBvhTreeCount; ++tree)
+    bvh.startBoxes[tree] = bvh.endBoxes[tree];
+  outside = tally.outside;
+  return true;
 }
 
 Vec3 clampIntoBounds(const CandidatePairs& pairs, std::size_t i, const Vec3& p) {
   const Vec3 offset = pairs.endOffset();
-  if (!outsideBounds(pairs, p, offset, i)) return p;
-  const Vec3 lower = pairs.boundLower[i], upper = pairs.boundUpper[i];
+  const int boundary = pairs.frameSubstep + 1;
+  if (!outsideBounds(pairs, p, offset, boundary, i)) return p;
+  Vec3 lower, upper;
+  boundsAt(pairs, i, boundary, lower, upper);
   Vec3 inside = (p - offset).cwiseMax(lower).cwiseMin(upper) + offset;
   // Adding the offset back rounds: a coordinate that lands a float step outside is stepped in.
   constexpr Real kInfinite = std::numeric_limits<Real>::infinity();
@@ -552,10 +646,14 @@ struct ExtensionQuery {
   Index self;
   bool selfFirst;        // the query primitive is the pair's first
   bool partnerIsolated;  // the tree is IsolatedPoints: its primitives map to points
+  // The query primitive's moving box, and the tree's by tree primitive.
+  PrimitiveBox selfStart, selfEnd;
+  const PrimitiveBox *partnerStart, *partnerEnd;
 };
 
 void keepExtension(void* raw, Index partner) {
   ExtensionQuery& q = *static_cast<ExtensionQuery*>(raw);
+  if (!meetInMotion(q.selfStart, q.selfEnd, q.partnerStart[partner], q.partnerEnd[partner])) return;
   if (q.partnerIsolated) partner = q.isolatedPoints[partner];
   Index first = q.selfFirst ? q.self : partner, second = q.selfFirst ? partner : q.self;
   if (q.kind == PairKind::EdgeEdge || q.kind == PairKind::VertexVertex) {
@@ -577,33 +675,65 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   const std::size_t n = position.size();
   const std::size_t points = primitives.points(), edges = primitives.edges(),
                     triangles = primitives.triangles();
-  auto& triangleBoxes = bvh.treeBoxes(BvhTree::Triangles);
-  auto& edgeBoxes = bvh.treeBoxes(BvhTree::Edges);
-  auto& isolatedBoxes = bvh.treeBoxes(BvhTree::IsolatedPoints);
-  auto& pointBoxes = bvh.treeBoxes(BvhTree::Points);
-  // The trees and motion boxes of the last findCandidatePairs must still fit the primitives.
-  if (pairs.boundLower.size() != n || pairs.motionLower.size() != n ||
-      triangleBoxes.size() != triangles || edgeBoxes.size() != edges ||
-      pointBoxes.size() != (triangles > 0 ? points : 0) ||
-      isolatedBoxes.size() != bvh.isolatedPoints.size() ||
-      bvh.builtCount(BvhTree::Triangles) != triangles || bvh.builtCount(BvhTree::Edges) != edges)
+  // The trees and paths of the last findCandidatePairs must still fit the primitives.
+  if (!hasBounds(pairs, n) || pairs.motionLower.size() != n ||
+      bvh.boxes[kTriangleTree].size() != triangles || bvh.boxes[kEdgeTree].size() != edges ||
+      bvh.boxes[kPointTree].size() != (triangles > 0 ? points : 0) ||
+      bvh.boxes[kIsolatedTree].size() != bvh.isolatedPoints.size() ||
+      bvh.builtCount(BvhTree::Triangles) != triangles || bvh.builtCount(BvhTree::Edges) != edges ||
+      offsets.endAt <= offsets.startAt || offsets.startAt < pairs.pathFrom ||
+      offsets.startAt >= pairs.pathTo)
     return false;
+  for (std::size_t tree = 0; tree < kBvhTreeCount; ++tree)
+    if (bvh.startBoxes[tree].size() != bvh.boxes[tree].size() ||
+        bvh.endBoxes[tree].size() != bvh.boxes[tree].size())
+      return false;
 
   std::vector<std::uint8_t>& grown = bvh.grownParticle;
   grown.assign(n, 0);
   std::size_t outside = 0;
+  // Outside at the end of the motion or at its start (a step that starts from the last step's
+  // pairs: the substeps after it start where the last one ended, inside).
   for (std::size_t i = 0; i < n; ++i)
-    if (outsideBounds(pairs, position[i], offsets.position, i)) grown[i] = 1, ++outside;
+    if (outsideBounds(pairs, position[i], offsets.position, offsets.positionAt, i) ||
+        outsideBounds(pairs, start[i], offsets.start, offsets.startAt, i))
+      grown[i] = 1, ++outside;
   if (outside == 0) return true;
   if (outside * kExtendShare > n) return false;
+  // Every path and moving box from the new start on: the same motion over the rest of the window
+  // (a primitive's box at an instant of it is the interpolation of its two ends, which holds the
+  // box of its particles' path points then), so that the new paths and the old ones start
+  // together.
+  if (offsets.startAt > pairs.pathFrom) {
+    const double t = double(offsets.startAt - pairs.pathFrom) / (pairs.pathTo - pairs.pathFrom);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kBoxGrain),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                          pairs.pathStart[i] = pairs.pathPoint(i, offsets.startAt);
+                          pairs.motionLower[i] = pairs.pathStart[i].cwiseMin(pairs.pathEnd[i]);
+                          pairs.motionUpper[i] = pairs.pathStart[i].cwiseMax(pairs.pathEnd[i]);
+                        }
+                      });
+    for (std::size_t tree = 0; tree < kBvhTreeCount; ++tree)
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, bvh.startBoxes[tree].size(), kBoxGrain),
+                        [&](const tbb::blocked_range<std::size_t>& r) {
+                          for (std::size_t i = r.begin(); i != r.end(); ++i)
+                            bvh.startBoxes[tree][i] =
+                                boxBetween(bvh.startBoxes[tree][i], bvh.endBoxes[tree][i], t);
+                        });
+    pairs.pathFrom = offsets.startAt;
+  }
+  // The new paths, through `end` and on to the window's end.
+  const Real stretch = Real(pairs.pathTo - offsets.startAt) / Real(offsets.endAt - offsets.startAt);
   for (std::size_t i = 0; i < n; ++i) {
     if (!grown[i]) continue;
-    const Vec3 a = start[i] - offsets.start, b = end[i] - offsets.end;
+    const Vec3 a = start[i] - offsets.start;
+    const Vec3 b = a + stretch * (end[i] - offsets.end - a);
+    pairs.pathStart[i] = a, pairs.pathEnd[i] = b;
     pairs.motionLower[i] = a.cwiseMin(b);
     pairs.motionUpper[i] = a.cwiseMax(b);
-    pairs.boundLower[i] = pairs.motionLower[i].array() - slack;
-    pairs.boundUpper[i] = pairs.motionUpper[i].array() + slack;
   }
+  pairs.boundSlack = slack;
 
   // The primitives with a grown particle, and their new boxes.
   auto& changedPoints = bvh.changedPrimitives[0];
@@ -613,19 +743,24 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   bvh.changedPrimitive[0].assign(points, 0);
   bvh.changedPrimitive[1].assign(edges, 0);
   bvh.changedPrimitive[2].assign(triangles, 0);
-  const std::span<const Vec3> lower = pairs.motionLower, upper = pairs.motionUpper;
+  const std::span<const Vec3> pathStart = pairs.pathStart, pathEnd = pairs.pathEnd;
+  const auto store = [&](std::size_t tree, std::size_t i, const MovingBox& box) {
+    bvh.boxes[tree][i] = box.swept;
+    bvh.startBoxes[tree][i] = box.start;
+    bvh.endBoxes[tree][i] = box.end;
+  };
   for (std::size_t i = 0; i < points; ++i)
     if (grown[primitives.pointParticle[i]]) {
       changedPoints.push_back(static_cast<Index>(i));
       bvh.changedPrimitive[0][i] = 1;
-      const PrimitiveBox box = sweptBox(pointParticles(primitives, i), lower, upper,
+      const MovingBox box = movingBoxOf(pointParticles(primitives, i), pathStart, pathEnd,
                                         primitives.pointRadius[i] + margin / 2);
-      if (triangles > 0) pointBoxes[i] = box;
+      if (triangles > 0) store(kPointTree, i, box);
       if (primitives.pointIsolated[i]) {
         const auto k = std::lower_bound(bvh.isolatedPoints.begin(), bvh.isolatedPoints.end(),
                                         static_cast<Index>(i)) -
                        bvh.isolatedPoints.begin();
-        isolatedBoxes[static_cast<std::size_t>(k)] = box;
+        store(kIsolatedTree, static_cast<std::size_t>(k), box);
       }
     }
   for (std::size_t e = 0; e < edges; ++e) {
@@ -633,18 +768,33 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     if (!grown[ends[0]] && !grown[ends[1]]) continue;
     changedEdges.push_back(static_cast<Index>(e));
     bvh.changedPrimitive[1][e] = 1;
-    edgeBoxes[e] =
-        sweptBox(edgeParticles(primitives, e), lower, upper, primitives.edgeRadius[e] + margin / 2);
+    store(kEdgeTree, e,
+          movingBoxOf(edgeParticles(primitives, e), pathStart, pathEnd,
+                      primitives.edgeRadius[e] + margin / 2));
   }
   for (std::size_t t = 0; t < triangles; ++t) {
     const auto& corners = primitives.triangleParticles[t];
     if (!grown[corners[0]] && !grown[corners[1]] && !grown[corners[2]]) continue;
     changedTriangles.push_back(static_cast<Index>(t));
     bvh.changedPrimitive[2][t] = 1;
-    triangleBoxes[t] = sweptBox(triangleParticles(primitives, t), lower, upper,
-                                primitives.triangleRadius[t] + margin / 2);
+    store(kTriangleTree, t,
+          movingBoxOf(triangleParticles(primitives, t), pathStart, pathEnd,
+                      primitives.triangleRadius[t] + margin / 2));
   }
   bvh.commit();
+
+  // A primitive's moving box by list (0 points, 1 edges, 2 triangles): stored with its tree, or
+  // for a point without one (no triangles), computed.
+  const auto movingBoxOfPrimitive = [&](int list, Index i) -> MovingBox {
+    const auto read = [&](std::size_t tree) {
+      return MovingBox{bvh.startBoxes[tree][i], bvh.endBoxes[tree][i], bvh.boxes[tree][i]};
+    };
+    if (list == 1) return read(kEdgeTree);
+    if (list == 2) return read(kTriangleTree);
+    if (triangles > 0) return read(kPointTree);
+    return movingBoxOf(pointParticles(primitives, i), pathStart, pathEnd,
+                       primitives.pointRadius[i] + margin / 2);
+  };
 
   // The changed primitives' queries, kind by kind: each partner a tree reports is a pair with
   // the query's primitive as its first or its second.
@@ -671,6 +821,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     const std::vector<Index>& queries = *search.queries;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), 64),
                       [&](const tbb::blocked_range<std::size_t>& r) {
+                        const auto tree = static_cast<std::size_t>(search.tree);
                         ExtensionQuery query{&primitives,
                                              w.data(),
                                              bvh.isolatedPoints.data(),
@@ -680,28 +831,24 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                                              search.kind,
                                              0,
                                              search.selfFirst,
-                                             search.tree == BvhTree::IsolatedPoints};
+                                             search.tree == BvhTree::IsolatedPoints,
+                                             PrimitiveBox::empty(),
+                                             PrimitiveBox::empty(),
+                                             bvh.startBoxes[tree].data(),
+                                             bvh.endBoxes[tree].data()};
                         for (std::size_t k = r.begin(); k != r.end(); ++k) {
                           const Index self = queries[k];
-                          const PrimitiveBox* box;
-                          if (search.queries == &changedEdges)
-                            box = &edgeBoxes[self];
-                          else if (search.queries == &changedTriangles)
-                            box = &triangleBoxes[self];
-                          else {
-                            if (search.queryIsIsolated && !primitives.pointIsolated[self]) continue;
-                            // The point's box is stored with its tree; recomputed for the isolated
-                            // ones.
-                            box = nullptr;
-                          }
-                          PrimitiveBox pointBox;
-                          if (!box) {
-                            pointBox = sweptBox(pointParticles(primitives, self), lower, upper,
-                                                primitives.pointRadius[self] + margin / 2);
-                            box = &pointBox;
-                          }
+                          if (search.queries == &changedPoints && search.queryIsIsolated &&
+                              !primitives.pointIsolated[self])
+                            continue;
+                          const MovingBox box =
+                              movingBoxOfPrimitive(search.queries == &changedEdges       ? 1
+                                                   : search.queries == &changedTriangles ? 2
+                                                                                         : 0,
+                                                   self);
                           query.self = self;
-                          bvh.forEachOverlap(search.tree, *box, &keepExtension, &query);
+                          query.selfStart = box.start, query.selfEnd = box.end;
+                          bvh.forEachOverlap(search.tree, box.swept, &keepExtension, &query);
                         }
                         query.found.append(query.kept.data(), query.keptCount);
                       });
@@ -717,16 +864,6 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   // Merged in (kind, first, second) order; a pair already in the set is kept once, and a pair of
   // a changed primitive whose boxes no longer overlap is dropped, so that the set stays the one a
   // full broad phase over these boxes would give.
-  const auto boxOf = [&](PairKind kind, bool first, Index i) -> PrimitiveBox {
-    const bool point = first ? kind != PairKind::EdgeEdge : kind == PairKind::VertexVertex;
-    if (point) {
-      if (triangles > 0) return pointBoxes[i];
-      return sweptBox(pointParticles(primitives, i), lower, upper,
-                      primitives.pointRadius[i] + margin / 2);
-    }
-    if (!first && kind == PairKind::VertexFace) return triangleBoxes[i];
-    return edgeBoxes[i];
-  };
   const std::size_t old = pairs.size();
   bvh.stalePair.resize(old);
   tbb::parallel_for(
@@ -737,7 +874,13 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
           const Index a = pairs.first[i], b = pairs.second[i];
           const bool changed = bvh.changedPrimitive[primitiveListOf(kind, true)][a] != 0 ||
                                bvh.changedPrimitive[primitiveListOf(kind, false)][b] != 0;
-          bvh.stalePair[i] = changed && !overlaps(boxOf(kind, true, a), boxOf(kind, false, b));
+          if (!changed) {
+            bvh.stalePair[i] = 0;
+            continue;
+          }
+          const MovingBox boxA = movingBoxOfPrimitive(primitiveListOf(kind, true), a),
+                          boxB = movingBoxOfPrimitive(primitiveListOf(kind, false), b);
+          bvh.stalePair[i] = !meetInMotion(boxA.start, boxA.end, boxB.start, boxB.end);
         }
       });
   // Each new pair's place among the old ones (bisection), the old pairs kept per chunk, then
@@ -834,18 +977,21 @@ BroadPhaseStats findCandidatePairsBruteForce(CandidatePairs& out,
                                              std::span<const Real> w, Real margin) {
   BroadPhaseStats stats;
   out.clear();
-  std::vector<PrimitiveBox> pointBoxes, edgeBoxes, triangleBoxes;
+  std::vector<MovingBox> pointBoxes, edgeBoxes, triangleBoxes;
   for (std::size_t i = 0; i < primitives.points(); ++i)
     pointBoxes.push_back(
-        sweptBox(pointParticles(primitives, i), x, p, primitives.pointRadius[i] + margin / 2));
+        movingBoxOf(pointParticles(primitives, i), x, p, primitives.pointRadius[i] + margin / 2));
   for (std::size_t i = 0; i < primitives.edges(); ++i)
     edgeBoxes.push_back(
-        sweptBox(edgeParticles(primitives, i), x, p, primitives.edgeRadius[i] + margin / 2));
+        movingBoxOf(edgeParticles(primitives, i), x, p, primitives.edgeRadius[i] + margin / 2));
   for (std::size_t i = 0; i < primitives.triangles(); ++i)
-    triangleBoxes.push_back(sweptBox(triangleParticles(primitives, i), x, p,
-                                     primitives.triangleRadius[i] + margin / 2));
+    triangleBoxes.push_back(movingBoxOf(triangleParticles(primitives, i), x, p,
+                                        primitives.triangleRadius[i] + margin / 2));
   for (const auto* boxes : {&pointBoxes, &edgeBoxes, &triangleBoxes})
-    for (const PrimitiveBox& box : *boxes) stats.skippedPrimitives += box.isEmpty();
+    for (const MovingBox& box : *boxes) stats.skippedPrimitives += box.swept.isEmpty();
+  const auto meet = [](const MovingBox& a, const MovingBox& b) {
+    return meetInMotion(a.start, a.end, b.start, b.end);
+  };
 
   auto allowed = [&](std::span<const Index> a, std::uint32_t objectA, std::span<const Index> b,
                      std::uint32_t objectB) {
@@ -865,20 +1011,20 @@ BroadPhaseStats findCandidatePairsBruteForce(CandidatePairs& out,
 
   for (std::size_t i = 0; i < primitives.points(); ++i)
     for (std::size_t t = 0; t < primitives.triangles(); ++t)
-      if (overlaps(pointBoxes[i], triangleBoxes[t]) &&
+      if (meet(pointBoxes[i], triangleBoxes[t]) &&
           allowed(pointParticles(primitives, i), primitives.pointObject[i],
                   triangleParticles(primitives, t), primitives.triangleObject[t]))
         add(PairKind::VertexFace, i, t);
   for (std::size_t a = 0; a < primitives.edges(); ++a)
     for (std::size_t b = a + 1; b < primitives.edges(); ++b)
-      if (overlaps(edgeBoxes[a], edgeBoxes[b]) &&
+      if (meet(edgeBoxes[a], edgeBoxes[b]) &&
           allowed(edgeParticles(primitives, a), primitives.edgeObject[a],
                   edgeParticles(primitives, b), primitives.edgeObject[b]))
         add(PairKind::EdgeEdge, a, b);
   for (std::size_t i = 0; i < primitives.points(); ++i) {
     if (!primitives.pointIsolated[i]) continue;
     for (std::size_t e = 0; e < primitives.edges(); ++e)
-      if (overlaps(pointBoxes[i], edgeBoxes[e]) &&
+      if (meet(pointBoxes[i], edgeBoxes[e]) &&
           allowed(pointParticles(primitives, i), primitives.pointObject[i],
                   edgeParticles(primitives, e), primitives.edgeObject[e]))
         add(PairKind::VertexEdge, i, e);
@@ -886,7 +1032,7 @@ BroadPhaseStats findCandidatePairsBruteForce(CandidatePairs& out,
   for (std::size_t i = 0; i < primitives.points(); ++i) {
     if (!primitives.pointIsolated[i]) continue;
     for (std::size_t j = i + 1; j < primitives.points(); ++j)
-      if (primitives.pointIsolated[j] && overlaps(pointBoxes[i], pointBoxes[j]) &&
+      if (primitives.pointIsolated[j] && meet(pointBoxes[i], pointBoxes[j]) &&
           allowed(pointParticles(primitives, i), primitives.pointObject[i],
                   pointParticles(primitives, j), primitives.pointObject[j]))
         add(PairKind::VertexVertex, i, j);

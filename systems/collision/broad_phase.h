@@ -95,12 +95,15 @@ void setMotionFrame(CandidatePairs& pairs, std::span<const Vec3> x, std::span<co
                     std::span<const Real> w, const Vec3& g, Real h, int substep, int substeps,
                     const Vec3& base = Vec3::Zero());
 
-// Each particle's motion box, into pairs.motionLower/motionUpper: the box of its positions in
-// `start` and `end`, each taken in the frame (less the frame's offset at its instant).
+// Each particle's path, into pairs.pathStart/pathEnd (and its box, motionLower/motionUpper): from
+// its position in `start` at substep boundary `from` to its position in `end` stretched by
+// `stretch` (a path through `end` and on, to boundary `to`), each taken in the frame (less the
+// frame's offset at its instant).
 void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::span<const Vec3> end,
-                     const Vec3& startOffset = Vec3::Zero(), const Vec3& endOffset = Vec3::Zero());
+                     const Vec3& startOffset = Vec3::Zero(), const Vec3& endOffset = Vec3::Zero(),
+                     int from = 0, int to = 1, Real stretch = 1);
 
-// How far a particle may stray outside its motion box with no crossing escaping the candidate
+// How far a particle may stray from its path with no crossing escaping the candidate
 // set: kBoundSlackFraction × (2 r_min + margin), r_min the smallest primitive radius. Two
 // primitives whose boxes are apart are at least r_a + r_b + margin ≥ 2 r_min + margin apart over
 // their particles' motion boxes; if every particle strays at most that slack, they stay at least
@@ -110,8 +113,7 @@ void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::sp
 constexpr Real kBoundSlackFraction = Real(0.45);
 Real boundSlack(const CollisionPrimitives& primitives, Real margin);
 
-// Turns motion boxes into bounds: boundLower/boundUpper are motionLower/motionUpper grown by
-// `slack`.
+// Turns paths into bounds: a particle must stay within `slack` of its path's point, per axis.
 void growParticleBounds(CandidatePairs& pairs, Real slack);
 
 // Makes the pairs complete again where some particles left their bounds, without finding them
@@ -129,6 +131,11 @@ struct FrameOffsets {
   Vec3 position = Vec3::Zero();
   Vec3 start = Vec3::Zero();
   Vec3 end = Vec3::Zero();
+  // The substep boundaries of `position`, `start` and `end`; a new path runs from `start`
+  // through `end` on to the window's end (CandidatePairs::pathTo).
+  int positionAt = 1;
+  int startAt = 0;
+  int endAt = 1;
 };
 bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                           const CollisionPrimitives& primitives, std::span<const Vec3> position,
@@ -144,16 +151,21 @@ bool withinParticleBounds(const CandidatePairs& pairs, std::span<const Vec3> p);
 
 // Whether a new step may start from the last step's pairs (at its first substep, before any
 // search): the frame goes on from where the last step's ended with this step's median motion
-// (setMotionFrame with that base), every particle's position x at the step's start lies within
-// its bounds, and the bounds are not loose: their summed extents are at most kLooseBounds times
-// those a new search would give (|p − x − m| over the step's `substeps` plus twice `slack`, per
-// axis, m the frame's motion over a substep), so that a cloth come to rest does not keep the
-// larger pair set of its fall. The caller then checks p as at any substep: within the bounds the
-// set is complete, and few particles outside extend it. A cloth falling or at rest as a whole
-// keeps its pairs from step to step. False when there are no bounds for these particles.
+// (setMotionFrame with that base), at most 1/kExtendShare of the particles' positions x at the
+// step's start lie outside their bounds (`outside` says how many: the caller extends the set
+// for them), and the last paths were not loose: their summed extents are at most kLooseBounds
+// times those a new search would give (|p − x − m| over the step's `substeps`, plus twice
+// `slack`, per axis, m the frame's motion over a substep), so that a cloth come to rest does not
+// keep the larger pair set of its fall. When it may, every path is held at its end from then on
+// (a point, and every primitive's moving box its end box): the set stays complete for particles
+// that stay within the slack of their ends. The caller then checks p as at any substep: within
+// the bounds the set is complete, and few particles outside extend it. A cloth falling or at
+// rest as a whole keeps its pairs from step to step. False when there are no bounds for these
+// particles.
 constexpr Real kLooseBounds = 2;
-bool carryPairsIntoStep(CandidatePairs& pairs, std::span<const Vec3> x, std::span<const Vec3> p,
-                        std::span<const Real> w, const Vec3& g, Real h, int substeps, Real slack);
+bool carryPairsIntoStep(CandidatePairs& pairs, PrimitiveBvh& bvh, std::span<const Vec3> x,
+                        std::span<const Vec3> p, std::span<const Real> w, const Vec3& g, Real h,
+                        int substeps, Real slack, std::size_t& outside);
 
 // Position `p` of particle i at the end of the substep in progress, moved to the nearest point
 // inside its bounds: the point that countOutsideParticleBounds then counts as inside.

@@ -84,13 +84,16 @@ void redetectFromSolve(SolvePools& pools, SolveReport& report) {
   CandidatePairs& pairs = pools.candidates;
   // In the step's frame: the positions at the substep's start and end at their offsets.
   const Vec3 start = pairs.startOffset(), end = pairs.endOffset();
+  const int substep = pairs.frameSubstep, last = pairs.lastBoundary();
   if (extendCandidatePairs(pairs, pools.bvh, pools.primitives, particles.p, particles.x,
                            particles.p, particles.w, kPrimitiveContactMargin, slack,
-                           {end, start, end})) {
+                           {end, start, end, substep + 1, substep, substep + 1})) {
     ++report.incrementalRedetections;
   } else {
-    setMotionBounds(pairs, particles.x, particles.p, start, end);
-    findCandidatePairs(pairs, pools.bvh, pools.primitives, pairs.motionLower, pairs.motionUpper,
+    // The substep's motion, on in a straight line to the step's end.
+    setMotionBounds(pairs, particles.x, particles.p, start, end, substep, last,
+                    Real(last - substep));
+    findCandidatePairs(pairs, pools.bvh, pools.primitives, pairs.pathStart, pairs.pathEnd,
                        particles.w, kPrimitiveContactMargin);
     growParticleBounds(pairs, slack);
   }
