@@ -50,11 +50,12 @@ inline bool overlaps(const PrimitiveBox& a, const PrimitiveBox& b) {
 // end boxes, overlap at some instant of it. Per axis and side the gap is linear in time, so each
 // of the six conditions holds on a sub-interval; the boxes meet where all six do. Computed in
 // double with a tolerance of 1 nm toward meeting, far below any bound slack.
+// `since` limits the interval to its part from that fraction on.
 inline bool meetInMotion(const PrimitiveBox& startA, const PrimitiveBox& endA,
-                         const PrimitiveBox& startB, const PrimitiveBox& endB) {
+                         const PrimitiveBox& startB, const PrimitiveBox& endB, double since = 0) {
   if (startA.isEmpty() || endA.isEmpty() || startB.isEmpty() || endB.isEmpty()) return false;
   constexpr double kTolerance = 1e-9;
-  double from = 0, to = 1;
+  double from = since, to = 1;
   // Where g(t) = g0 + t (g1 − g0) ≥ 0, g being the room between a lower and an upper side.
   const auto keep = [&](double g0, double g1) {
     g0 += kTolerance, g1 += kTolerance;

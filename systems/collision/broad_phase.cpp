@@ -649,11 +649,14 @@ struct ExtensionQuery {
   // The query primitive's moving box, and the tree's by tree primitive.
   PrimitiveBox selfStart, selfEnd;
   const PrimitiveBox *partnerStart, *partnerEnd;
+  double since;  // the part of the window the pairs are for: from the extension's start on
 };
 
 void keepExtension(void* raw, Index partner) {
   ExtensionQuery& q = *static_cast<ExtensionQuery*>(raw);
-  if (!meetInMotion(q.selfStart, q.selfEnd, q.partnerStart[partner], q.partnerEnd[partner])) return;
+  if (!meetInMotion(q.selfStart, q.selfEnd, q.partnerStart[partner], q.partnerEnd[partner],
+                    q.since))
+    return;
   if (q.partnerIsolated) partner = q.isolatedPoints[partner];
   Index first = q.selfFirst ? q.self : partner, second = q.selfFirst ? partner : q.self;
   if (q.kind == PairKind::EdgeEdge || q.kind == PairKind::VertexVertex) {
@@ -700,36 +703,19 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
       grown[i] = 1, ++outside;
   if (outside == 0) return true;
   if (outside * kExtendShare > n) return false;
-  // Every path and moving box from the new start on: the same motion over the rest of the window
-  // (a primitive's box at an instant of it is the interpolation of its two ends, which holds the
-  // box of its particles' path points then), so that the new paths and the old ones start
-  // together.
-  if (offsets.startAt > pairs.pathFrom) {
-    const double t = double(offsets.startAt - pairs.pathFrom) / (pairs.pathTo - pairs.pathFrom);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kBoxGrain),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
-                        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                          pairs.pathStart[i] = pairs.pathPoint(i, offsets.startAt);
-                          pairs.motionLower[i] = pairs.pathStart[i].cwiseMin(pairs.pathEnd[i]);
-                          pairs.motionUpper[i] = pairs.pathStart[i].cwiseMax(pairs.pathEnd[i]);
-                        }
-                      });
-    for (std::size_t tree = 0; tree < kBvhTreeCount; ++tree)
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, bvh.startBoxes[tree].size(), kBoxGrain),
-                        [&](const tbb::blocked_range<std::size_t>& r) {
-                          for (std::size_t i = r.begin(); i != r.end(); ++i)
-                            bvh.startBoxes[tree][i] =
-                                boxBetween(bvh.startBoxes[tree][i], bvh.endBoxes[tree][i], t);
-                        });
-    pairs.pathFrom = offsets.startAt;
-  }
-  // The new paths, through `end` and on to the window's end.
-  const Real stretch = Real(pairs.pathTo - offsets.startAt) / Real(offsets.endAt - offsets.startAt);
+  // The new paths, through `end` and on to the window's end, written over the whole window
+  // (extrapolated back to its start) so that every path stays linear over it; the new pairs are
+  // tested over the window's part from `startAt` on, which is all that is ahead.
+  const Real span = Real(pairs.pathTo - offsets.startAt);
+  const Real stretch = span / Real(offsets.endAt - offsets.startAt);
+  const Real back = Real(offsets.startAt - pairs.pathFrom) / span;
+  const double since =
+      double(offsets.startAt - pairs.pathFrom) / double(pairs.pathTo - pairs.pathFrom);
   for (std::size_t i = 0; i < n; ++i) {
     if (!grown[i]) continue;
     const Vec3 a = start[i] - offsets.start;
     const Vec3 b = a + stretch * (end[i] - offsets.end - a);
-    pairs.pathStart[i] = a, pairs.pathEnd[i] = b;
+    pairs.pathStart[i] = a - back * (b - a), pairs.pathEnd[i] = b;
     pairs.motionLower[i] = a.cwiseMin(b);
     pairs.motionUpper[i] = a.cwiseMax(b);
   }
@@ -744,6 +730,11 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   bvh.changedPrimitive[1].assign(edges, 0);
   bvh.changedPrimitive[2].assign(triangles, 0);
   const std::span<const Vec3> pathStart = pairs.pathStart, pathEnd = pairs.pathEnd;
+  // A changed primitive's tree box holds its moving box over the part ahead only.
+  const auto ahead = [&](MovingBox box) {
+    box.swept = hullOf(boxBetween(box.start, box.end, since), box.end);
+    return box;
+  };
   const auto store = [&](std::size_t tree, std::size_t i, const MovingBox& box) {
     bvh.boxes[tree][i] = box.swept;
     bvh.startBoxes[tree][i] = box.start;
@@ -753,8 +744,8 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     if (grown[primitives.pointParticle[i]]) {
       changedPoints.push_back(static_cast<Index>(i));
       bvh.changedPrimitive[0][i] = 1;
-      const MovingBox box = movingBoxOf(pointParticles(primitives, i), pathStart, pathEnd,
-                                        primitives.pointRadius[i] + margin / 2);
+      const MovingBox box = ahead(movingBoxOf(pointParticles(primitives, i), pathStart, pathEnd,
+                                              primitives.pointRadius[i] + margin / 2));
       if (triangles > 0) store(kPointTree, i, box);
       if (primitives.pointIsolated[i]) {
         const auto k = std::lower_bound(bvh.isolatedPoints.begin(), bvh.isolatedPoints.end(),
@@ -769,8 +760,8 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     changedEdges.push_back(static_cast<Index>(e));
     bvh.changedPrimitive[1][e] = 1;
     store(kEdgeTree, e,
-          movingBoxOf(edgeParticles(primitives, e), pathStart, pathEnd,
-                      primitives.edgeRadius[e] + margin / 2));
+          ahead(movingBoxOf(edgeParticles(primitives, e), pathStart, pathEnd,
+                            primitives.edgeRadius[e] + margin / 2)));
   }
   for (std::size_t t = 0; t < triangles; ++t) {
     const auto& corners = primitives.triangleParticles[t];
@@ -778,8 +769,8 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     changedTriangles.push_back(static_cast<Index>(t));
     bvh.changedPrimitive[2][t] = 1;
     store(kTriangleTree, t,
-          movingBoxOf(triangleParticles(primitives, t), pathStart, pathEnd,
-                      primitives.triangleRadius[t] + margin / 2));
+          ahead(movingBoxOf(triangleParticles(primitives, t), pathStart, pathEnd,
+                            primitives.triangleRadius[t] + margin / 2)));
   }
   bvh.commit();
 
@@ -792,8 +783,8 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     if (list == 1) return read(kEdgeTree);
     if (list == 2) return read(kTriangleTree);
     if (triangles > 0) return read(kPointTree);
-    return movingBoxOf(pointParticles(primitives, i), pathStart, pathEnd,
-                       primitives.pointRadius[i] + margin / 2);
+    return ahead(movingBoxOf(pointParticles(primitives, i), pathStart, pathEnd,
+                             primitives.pointRadius[i] + margin / 2));
   };
 
   // The changed primitives' queries, kind by kind: each partner a tree reports is a pair with
@@ -835,7 +826,8 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                                              PrimitiveBox::empty(),
                                              PrimitiveBox::empty(),
                                              bvh.startBoxes[tree].data(),
-                                             bvh.endBoxes[tree].data()};
+                                             bvh.endBoxes[tree].data(),
+                                             since};
                         for (std::size_t k = r.begin(); k != r.end(); ++k) {
                           const Index self = queries[k];
                           if (search.queries == &changedPoints && search.queryIsIsolated &&
@@ -880,7 +872,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
           }
           const MovingBox boxA = movingBoxOfPrimitive(primitiveListOf(kind, true), a),
                           boxB = movingBoxOfPrimitive(primitiveListOf(kind, false), b);
-          bvh.stalePair[i] = !meetInMotion(boxA.start, boxA.end, boxB.start, boxB.end);
+          bvh.stalePair[i] = !meetInMotion(boxA.start, boxA.end, boxB.start, boxB.end, since);
         }
       });
   // Each new pair's place among the old ones (bisection), the old pairs kept per chunk, then
