@@ -51,30 +51,53 @@ inline bool overlaps(const PrimitiveBox& a, const PrimitiveBox& b) {
 // of the six conditions holds on a sub-interval; the boxes meet where all six do. Computed in
 // double with a tolerance of 1 nm toward meeting, far below any bound slack.
 // `since` limits the interval to its part from that fraction on.
-inline bool meetInMotion(const PrimitiveBox& startA, const PrimitiveBox& endA,
-                         const PrimitiveBox& startB, const PrimitiveBox& endB, double since = 0) {
+[[gnu::always_inline]] inline bool meetInMotion(const PrimitiveBox& startA,
+                                                const PrimitiveBox& endA,
+                                                const PrimitiveBox& startB,
+                                                const PrimitiveBox& endB, double since = 0) {
   if (startA.isEmpty() || endA.isEmpty() || startB.isEmpty() || endB.isEmpty()) return false;
   constexpr double kTolerance = 1e-9;
-  double from = since, to = 1;
-  // Where g(t) = g0 + t (g1 − g0) ≥ 0, g being the room between a lower and an upper side.
-  const auto keep = [&](double g0, double g1) {
-    g0 += kTolerance, g1 += kTolerance;
-    if (g0 >= 0 && g1 >= 0) return;
-    if (g0 < 0 && g1 < 0) {
-      from = 2;  // never
-      return;
-    }
+  // g(t) = g0 + t (g1 − g0) ≥ 0 for the room between a lower and an upper side, over the
+  // interval from `since` (g0 taken there) to its end. Most pairs that meet already overlap at
+  // its start: all six g0 ≥ 0.
+  double start[6], end[6];
+  bool overlapAtStart = true;
+  for (int k = 0; k < 3; ++k) {
+    const double lowerA = startA.lower[k] + since * (double(endA.lower[k]) - startA.lower[k]);
+    const double upperA = startA.upper[k] + since * (double(endA.upper[k]) - startA.upper[k]);
+    const double lowerB = startB.lower[k] + since * (double(endB.lower[k]) - startB.lower[k]);
+    const double upperB = startB.upper[k] + since * (double(endB.upper[k]) - startB.upper[k]);
+    start[2 * k] = upperB - lowerA + kTolerance;
+    start[2 * k + 1] = upperA - lowerB + kTolerance;
+    end[2 * k] = double(endB.upper[k]) - endA.lower[k] + kTolerance;
+    end[2 * k + 1] = double(endA.upper[k]) - endB.lower[k] + kTolerance;
+    overlapAtStart &= start[2 * k] >= 0 && start[2 * k + 1] >= 0;
+  }
+  if (overlapAtStart) return true;
+  // Each condition holds from its crossing on (g0 < 0 ≤ g1), up to it (g1 < 0 ≤ g0), always or
+  // never; the boxes meet where all six hold.
+  double from = 0, to = 1;
+  for (int c = 0; c < 6; ++c) {
+    const double g0 = start[c], g1 = end[c];
+    if (g0 >= 0 && g1 >= 0) continue;
+    if (g0 < 0 && g1 < 0) return false;
     const double crossing = g0 / (g0 - g1);
     if (g0 < 0)
       from = std::max(from, crossing);
     else
       to = std::min(to, crossing);
-  };
-  for (int k = 0; k < 3; ++k) {
-    keep(double(startB.upper[k]) - startA.lower[k], double(endB.upper[k]) - endA.lower[k]);
-    keep(double(startA.upper[k]) - startB.lower[k], double(endA.upper[k]) - endB.lower[k]);
   }
   return from <= to;
+}
+
+// A primitive's box at the start and at the end of a motion.
+struct BoxEnds {
+  PrimitiveBox start;
+  PrimitiveBox end;
+};
+
+inline bool meetInMotion(const BoxEnds& a, const BoxEnds& b, double since = 0) {
+  return meetInMotion(a.start, a.end, b.start, b.end, since);
 }
 
 enum class BvhTree : std::uint8_t { Triangles, Edges, IsolatedPoints, Points };
@@ -99,8 +122,8 @@ class PrimitiveBvh {
   // Per tree, each primitive's box at the start and at the end of the motion it was found for
   // (its particles' path ends, grown like the swept box): the moving box the pair tests use
   // (meetInMotion). The tree's box is the box of the two.
-  std::array<std::vector<PrimitiveBox>, kBvhTreeCount> startBoxes;
-  std::array<std::vector<PrimitiveBox>, kBvhTreeCount> endBoxes;
+  // Both in one record, so that a pair test loads one record per primitive.
+  std::array<std::vector<BoxEnds>, kBvhTreeCount> boxEnds;
 
   // Makes every tree bound its current boxes: built from scratch where the number of boxes
   // differs from the one the tree was built for, refit otherwise. Returns whether any tree was

@@ -371,7 +371,7 @@ TEST(BroadPhase, IncrementalRedetectionCoversTheGrownMotion) {
         // apart is left.
         CandidatePairs reference;
         findCandidatePairsBruteForce(reference, s.primitives, pairs.pathStart, pairs.pathEnd, s.w,
-                                     s.margin);
+                                     s.margin, pairs.pathReach);
         expectSamePairs(pairs, reference);
         // The per-pair data can follow: pairs kept point back to themselves before.
         ASSERT_EQ(pairs.formerIndex.size(), pairs.size());
@@ -599,6 +599,7 @@ TEST(BroadPhase, ClampIntoBoundsLandsInsideInAnyFrame) {
   const std::size_t n = 4000;
   pairs.pathStart.resize(n);
   pairs.pathEnd.resize(n);
+  pairs.pathReach.assign(n, Vec3::Zero());
   pairs.boundSlack = Real(0.01);
   std::vector<Vec3> p(n);
   for (std::size_t i = 0; i < n; ++i) {

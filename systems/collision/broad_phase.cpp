@@ -23,6 +23,7 @@ namespace {
 constexpr double kMaxCoordinate = 1e18;
 constexpr std::size_t kBoxGrain = 2048;
 constexpr std::size_t kPairGrain = 4096;
+constexpr bool kHoldBentPaths = true;
 constexpr auto kTriangleTree = static_cast<std::size_t>(BvhTree::Triangles);
 constexpr auto kEdgeTree = static_cast<std::size_t>(BvhTree::Edges);
 constexpr auto kIsolatedTree = static_cast<std::size_t>(BvhTree::IsolatedPoints);
@@ -73,11 +74,40 @@ PrimitiveBox hullOf(const PrimitiveBox& a, const PrimitiveBox& b) {
 struct MovingBox {
   PrimitiveBox start, end, swept;
 };
+// The box of the particles' boxes centre ± reach (reach empty: zero), grown by `inflation`,
+// rounded outward to float; empty as sweptBox.
+PrimitiveBox reachBox(std::span<const Index> ids, std::span<const Vec3> centre,
+                      std::span<const Vec3> reach, Real inflation) {
+  if (reach.empty()) return sweptBox(ids, centre, centre, inflation);
+  double lower[3] = {kMaxCoordinate, kMaxCoordinate, kMaxCoordinate};
+  double upper[3] = {-kMaxCoordinate, -kMaxCoordinate, -kMaxCoordinate};
+  for (Index i : ids)
+    for (int k = 0; k < 3; ++k) {
+      const double c = centre[i][k], r = reach[i][k];
+      // Written so that a NaN fails the test too.
+      if (!(std::abs(c) <= kMaxCoordinate && std::abs(r) <= kMaxCoordinate))
+        return PrimitiveBox::empty();
+      lower[k] = std::min(lower[k], c - r);
+      upper[k] = std::max(upper[k], c + r);
+    }
+  if (!(std::abs(double(inflation)) <= kMaxCoordinate)) return PrimitiveBox::empty();
+  PrimitiveBox box;
+  constexpr float kInfinite = std::numeric_limits<float>::infinity();
+  for (int k = 0; k < 3; ++k) {
+    const double lo = lower[k] - inflation, hi = upper[k] + inflation;
+    if (!(std::abs(lo) <= kMaxCoordinate && std::abs(hi) <= kMaxCoordinate))
+      return PrimitiveBox::empty();
+    box.lower[k] = std::nextafter(static_cast<float>(lo), -kInfinite);
+    box.upper[k] = std::nextafter(static_cast<float>(hi), kInfinite);
+  }
+  return box;
+}
+
 MovingBox movingBoxOf(std::span<const Index> ids, std::span<const Vec3> start,
-                      std::span<const Vec3> end, Real inflation) {
+                      std::span<const Vec3> end, std::span<const Vec3> reach, Real inflation) {
   MovingBox box;
-  box.start = sweptBox(ids, start, start, inflation);
-  box.end = sweptBox(ids, end, end, inflation);
+  box.start = reachBox(ids, start, reach, inflation);
+  box.end = reachBox(ids, end, reach, inflation);
   box.swept = hullOf(box.start, box.end);
   return box;
 }
@@ -87,21 +117,19 @@ template <class Particles>
 std::size_t computeBoxes(PrimitiveBvh& bvh, BvhTree tree, std::size_t count,
                          const CollisionPrimitives& primitives, const std::vector<Real>& radius,
                          Particles particlesOf, std::span<const Vec3> x, std::span<const Vec3> p,
-                         Real margin) {
+                         std::span<const Vec3> reach, Real margin) {
   const auto t = static_cast<std::size_t>(tree);
   bvh.boxes[t].resize(count);
-  bvh.startBoxes[t].resize(count);
-  bvh.endBoxes[t].resize(count);
+  bvh.boxEnds[t].resize(count);
   // Integer sums: the same total for any partitioning.
   return tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, count, kBoxGrain), std::size_t{0},
       [&](const tbb::blocked_range<std::size_t>& r, std::size_t empty) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
           const MovingBox box =
-              movingBoxOf(particlesOf(primitives, i), x, p, radius[i] + margin / 2);
+              movingBoxOf(particlesOf(primitives, i), x, p, reach, radius[i] + margin / 2);
           bvh.boxes[t][i] = box.swept;
-          bvh.startBoxes[t][i] = box.start;
-          bvh.endBoxes[t][i] = box.end;
+          bvh.boxEnds[t][i] = {box.start, box.end};
           empty += box.swept.isEmpty();
         }
         return empty;
@@ -146,7 +174,7 @@ struct PairFilter {
   ThreadPairs found;
   std::vector<std::vector<std::uint64_t>>* staging;  // per arena thread, as found.lists
   // The two trees' moving boxes, by tree primitive.
-  const PrimitiveBox *startA, *endA, *startB, *endB;
+  const BoxEnds *endsA, *endsB;
 };
 
 constexpr std::size_t kStagedPairs = 4096;
@@ -213,7 +241,7 @@ void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
   std::uint64_t kept[kBatch];
   std::size_t keptCount = 0;
   for (std::size_t k = 0; k < count; ++k) {
-    if (!meetInMotion(f.startA[a[k]], f.endA[a[k]], f.startB[b[k]], f.endB[b[k]])) continue;
+    if (!meetInMotion(f.endsA[a[k]], f.endsB[b[k]])) continue;
     Index first = a[k], second = b[k];
     // The IsolatedPoints tree's primitives map to points; they ascend, so first < second holds.
     if constexpr (kKind == PairKind::VertexEdge || kKind == PairKind::VertexVertex)
@@ -370,7 +398,8 @@ PrimitiveBox sweptBox(std::span<const Index> particles, std::span<const Vec3> x,
 
 BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
                                    const CollisionPrimitives& primitives, std::span<const Vec3> x,
-                                   std::span<const Vec3> p, std::span<const Real> w, Real margin) {
+                                   std::span<const Vec3> p, std::span<const Real> w, Real margin,
+                                   std::span<const Vec3> reach) {
   BroadPhaseStats stats;
   const std::size_t points = primitives.points(), edges = primitives.edges(),
                     triangles = primitives.triangles();
@@ -378,21 +407,22 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
   Clock::time_point start = Clock::now();
   stats.skippedPrimitives =
       computeBoxes(bvh, BvhTree::Points, points, primitives, primitives.pointRadius, pointParticles,
-                   x, p, margin) +
+                   x, p, reach, margin) +
       computeBoxes(bvh, BvhTree::Edges, edges, primitives, primitives.edgeRadius, edgeParticles, x,
-                   p, margin) +
+                   p, reach, margin) +
       computeBoxes(bvh, BvhTree::Triangles, triangles, primitives, primitives.triangleRadius,
-                   triangleParticles, x, p, margin);
+                   triangleParticles, x, p, reach, margin);
   bvh.isolatedPoints.clear();
   for (std::size_t i = 0; i < points; ++i)
     if (primitives.pointIsolated[i]) bvh.isolatedPoints.push_back(static_cast<Index>(i));
-  for (auto* list : {&bvh.boxes, &bvh.startBoxes, &bvh.endBoxes}) {
-    (*list)[kIsolatedTree].resize(bvh.isolatedPoints.size());
-    for (std::size_t k = 0; k < bvh.isolatedPoints.size(); ++k)
-      (*list)[kIsolatedTree][k] = (*list)[kPointTree][bvh.isolatedPoints[k]];
-    // Every point's box is needed only against triangles.
-    if (triangles == 0) (*list)[kPointTree].clear();
+  bvh.boxes[kIsolatedTree].resize(bvh.isolatedPoints.size());
+  bvh.boxEnds[kIsolatedTree].resize(bvh.isolatedPoints.size());
+  for (std::size_t k = 0; k < bvh.isolatedPoints.size(); ++k) {
+    bvh.boxes[kIsolatedTree][k] = bvh.boxes[kPointTree][bvh.isolatedPoints[k]];
+    bvh.boxEnds[kIsolatedTree][k] = bvh.boxEnds[kPointTree][bvh.isolatedPoints[k]];
   }
+  // Every point's box is needed only against triangles.
+  if (triangles == 0) bvh.boxes[kPointTree].clear(), bvh.boxEnds[kPointTree].clear();
   stats.boxSeconds = secondsSince(start);
 
   // Trees.
@@ -415,8 +445,6 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
                     ThreadPairs{&bvh.threadPairs, &overflowLock},
                     &bvh.threadStaging,
                     nullptr,
-                    nullptr,
-                    nullptr,
                     nullptr};
   struct Traversal {
     PairKind kind;
@@ -432,10 +460,8 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
        &keepPairs<PairKind::VertexVertex>},
   }};
   for (const Traversal& t : traversals) {
-    filter.startA = bvh.startBoxes[static_cast<std::size_t>(t.a)].data();
-    filter.endA = bvh.endBoxes[static_cast<std::size_t>(t.a)].data();
-    filter.startB = bvh.startBoxes[static_cast<std::size_t>(t.b)].data();
-    filter.endB = bvh.endBoxes[static_cast<std::size_t>(t.b)].data();
+    filter.endsA = bvh.boxEnds[static_cast<std::size_t>(t.a)].data();
+    filter.endsB = bvh.boxEnds[static_cast<std::size_t>(t.b)].data();
     bvh.forEachOverlappingPair(t.a, t.b, t.keep, &filter);
     flushStaging(bvh.threadStaging, bvh.threadPairs);
     const std::size_t firsts = t.kind == PairKind::EdgeEdge ? edges : points;
@@ -486,20 +512,41 @@ void setMotionFrame(CandidatePairs& pairs, std::span<const Vec3> x, std::span<co
   pairs.frameSubstep = substep;
 }
 
+namespace {
+
+// Particle i's held path: the middle of the box of a → b, and the box's half extents.
+void holdPath(CandidatePairs& pairs, std::size_t i, const Vec3& a, const Vec3& b) {
+  const Vec3 lower = a.cwiseMin(b), upper = a.cwiseMax(b);
+  pairs.pathStart[i] = pairs.pathEnd[i] = (lower + upper) / 2;
+  // Rounded up so that the box around the middle holds both ends.
+  pairs.pathReach[i] = ((upper - lower) / 2)
+                           .cwiseMax(upper - pairs.pathStart[i])
+                           .cwiseMax(pairs.pathStart[i] - lower);
+  pairs.motionLower[i] = lower, pairs.motionUpper[i] = upper;
+}
+
+}  // namespace
+
 void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::span<const Vec3> end,
-                     const Vec3& startOffset, const Vec3& endOffset, int from, int to,
-                     Real stretch) {
-  pairs.pathStart.resize(start.size());
-  pairs.pathEnd.resize(start.size());
-  pairs.motionLower.resize(start.size());
-  pairs.motionUpper.resize(start.size());
+                     const Vec3& startOffset, const Vec3& endOffset, int from, int to, Real stretch,
+                     std::span<const std::uint8_t> held) {
+  const std::size_t n = start.size();
+  pairs.pathStart.resize(n);
+  pairs.pathEnd.resize(n);
+  pairs.pathReach.assign(n, Vec3::Zero());
+  pairs.motionLower.resize(n);
+  pairs.motionUpper.resize(n);
   pairs.pathFrom = from;
   pairs.pathTo = to;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, start.size(), kBoxGrain),
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kBoxGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
                         const Vec3 a = start[i] - startOffset;
                         const Vec3 b = a + stretch * (end[i] - endOffset - a);
+                        if (i < held.size() && held[i]) {
+                          holdPath(pairs, i, a, b);
+                          continue;
+                        }
                         pairs.pathStart[i] = a, pairs.pathEnd[i] = b;
                         pairs.motionLower[i] = a.cwiseMin(b);
                         pairs.motionUpper[i] = a.cwiseMax(b);
@@ -520,8 +567,9 @@ namespace {
 // Particle i's bounds at substep boundary k, in the frame.
 void boundsAt(const CandidatePairs& pairs, std::size_t i, int boundary, Vec3& lower, Vec3& upper) {
   const Vec3 centre = pairs.pathPoint(i, boundary);
-  lower = centre.array() - pairs.boundSlack;
-  upper = centre.array() + pairs.boundSlack;
+  const Vec3 reach = pairs.pathReach[i].array() + pairs.boundSlack;
+  lower = centre - reach;
+  upper = centre + reach;
 }
 
 // Whether `position`, at substep boundary k where the frame is offset by `offset`, is outside
@@ -535,7 +583,7 @@ bool outsideBounds(const CandidatePairs& pairs, const Vec3& position, const Vec3
 }
 
 bool hasBounds(const CandidatePairs& pairs, std::size_t n) {
-  return pairs.pathStart.size() == n && pairs.pathEnd.size() == n;
+  return pairs.pathStart.size() == n && pairs.pathEnd.size() == n && pairs.pathReach.size() == n;
 }
 
 }  // namespace
@@ -600,11 +648,13 @@ bool carryPairsIntoStep(CandidatePairs& pairs, PrimitiveBvh& bvh, std::span<cons
   pairs.pathFrom = 0;
   pairs.pathTo = std::max(substeps, 1);
   pairs.pathStart = pairs.pathEnd;
-  pairs.motionLower = pairs.pathEnd;
-  pairs.motionUpper = pairs.pathEnd;
+  for (std::size_t i = 0; i < n; ++i) {
+    pairs.motionLower[i] = pairs.pathEnd[i] - pairs.pathReach[i];
+    pairs.motionUpper[i] = pairs.pathEnd[i] + pairs.pathReach[i];
+  }
   pairs.boundSlack = slack;
   for (std::size_t tree = 0; tree < kBvhTreeCount; ++tree)
-    bvh.startBoxes[tree] = bvh.endBoxes[tree];
+    for (BoxEnds& ends : bvh.boxEnds[tree]) ends.start = ends.end;
   outside = tally.outside;
   return true;
 }
@@ -647,16 +697,14 @@ struct ExtensionQuery {
   bool selfFirst;        // the query primitive is the pair's first
   bool partnerIsolated;  // the tree is IsolatedPoints: its primitives map to points
   // The query primitive's moving box, and the tree's by tree primitive.
-  PrimitiveBox selfStart, selfEnd;
-  const PrimitiveBox *partnerStart, *partnerEnd;
+  BoxEnds selfEnds;
+  const BoxEnds* partners;
   double since;  // the part of the window the pairs are for: from the extension's start on
 };
 
 void keepExtension(void* raw, Index partner) {
   ExtensionQuery& q = *static_cast<ExtensionQuery*>(raw);
-  if (!meetInMotion(q.selfStart, q.selfEnd, q.partnerStart[partner], q.partnerEnd[partner],
-                    q.since))
-    return;
+  if (!meetInMotion(q.selfEnds, q.partners[partner], q.since)) return;
   if (q.partnerIsolated) partner = q.isolatedPoints[partner];
   Index first = q.selfFirst ? q.self : partner, second = q.selfFirst ? partner : q.self;
   if (q.kind == PairKind::EdgeEdge || q.kind == PairKind::VertexVertex) {
@@ -688,9 +736,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
       offsets.startAt >= pairs.pathTo)
     return false;
   for (std::size_t tree = 0; tree < kBvhTreeCount; ++tree)
-    if (bvh.startBoxes[tree].size() != bvh.boxes[tree].size() ||
-        bvh.endBoxes[tree].size() != bvh.boxes[tree].size())
-      return false;
+    if (bvh.boxEnds[tree].size() != bvh.boxes[tree].size()) return false;
 
   std::vector<std::uint8_t>& grown = bvh.grownParticle;
   grown.assign(n, 0);
@@ -711,11 +757,19 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   const Real back = Real(offsets.startAt - pairs.pathFrom) / span;
   const double since =
       double(offsets.startAt - pairs.pathFrom) / double(pairs.pathTo - pairs.pathFrom);
+  // A particle off its course once is likely to be bent again (a contact holds it, a fold turns
+  // it): its new path is held over the box of its motion, which any course inside that box
+  // keeps to.
   for (std::size_t i = 0; i < n; ++i) {
     if (!grown[i]) continue;
     const Vec3 a = start[i] - offsets.start;
     const Vec3 b = a + stretch * (end[i] - offsets.end - a);
+    if (kHoldBentPaths) {
+      holdPath(pairs, i, a, b);
+      continue;
+    }
     pairs.pathStart[i] = a - back * (b - a), pairs.pathEnd[i] = b;
+    pairs.pathReach[i] = Vec3::Zero();
     pairs.motionLower[i] = a.cwiseMin(b);
     pairs.motionUpper[i] = a.cwiseMax(b);
   }
@@ -729,7 +783,8 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   bvh.changedPrimitive[0].assign(points, 0);
   bvh.changedPrimitive[1].assign(edges, 0);
   bvh.changedPrimitive[2].assign(triangles, 0);
-  const std::span<const Vec3> pathStart = pairs.pathStart, pathEnd = pairs.pathEnd;
+  const std::span<const Vec3> pathStart = pairs.pathStart, pathEnd = pairs.pathEnd,
+                              pathReach = pairs.pathReach;
   // A changed primitive's tree box holds its moving box over the part ahead only.
   const auto ahead = [&](MovingBox box) {
     box.swept = hullOf(boxBetween(box.start, box.end, since), box.end);
@@ -737,15 +792,14 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   };
   const auto store = [&](std::size_t tree, std::size_t i, const MovingBox& box) {
     bvh.boxes[tree][i] = box.swept;
-    bvh.startBoxes[tree][i] = box.start;
-    bvh.endBoxes[tree][i] = box.end;
+    bvh.boxEnds[tree][i] = {box.start, box.end};
   };
   for (std::size_t i = 0; i < points; ++i)
     if (grown[primitives.pointParticle[i]]) {
       changedPoints.push_back(static_cast<Index>(i));
       bvh.changedPrimitive[0][i] = 1;
       const MovingBox box = ahead(movingBoxOf(pointParticles(primitives, i), pathStart, pathEnd,
-                                              primitives.pointRadius[i] + margin / 2));
+                                              pathReach, primitives.pointRadius[i] + margin / 2));
       if (triangles > 0) store(kPointTree, i, box);
       if (primitives.pointIsolated[i]) {
         const auto k = std::lower_bound(bvh.isolatedPoints.begin(), bvh.isolatedPoints.end(),
@@ -760,7 +814,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     changedEdges.push_back(static_cast<Index>(e));
     bvh.changedPrimitive[1][e] = 1;
     store(kEdgeTree, e,
-          ahead(movingBoxOf(edgeParticles(primitives, e), pathStart, pathEnd,
+          ahead(movingBoxOf(edgeParticles(primitives, e), pathStart, pathEnd, pathReach,
                             primitives.edgeRadius[e] + margin / 2)));
   }
   for (std::size_t t = 0; t < triangles; ++t) {
@@ -769,7 +823,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     changedTriangles.push_back(static_cast<Index>(t));
     bvh.changedPrimitive[2][t] = 1;
     store(kTriangleTree, t,
-          ahead(movingBoxOf(triangleParticles(primitives, t), pathStart, pathEnd,
+          ahead(movingBoxOf(triangleParticles(primitives, t), pathStart, pathEnd, pathReach,
                             primitives.triangleRadius[t] + margin / 2)));
   }
   bvh.commit();
@@ -778,12 +832,12 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   // for a point without one (no triangles), computed.
   const auto movingBoxOfPrimitive = [&](int list, Index i) -> MovingBox {
     const auto read = [&](std::size_t tree) {
-      return MovingBox{bvh.startBoxes[tree][i], bvh.endBoxes[tree][i], bvh.boxes[tree][i]};
+      return MovingBox{bvh.boxEnds[tree][i].start, bvh.boxEnds[tree][i].end, bvh.boxes[tree][i]};
     };
     if (list == 1) return read(kEdgeTree);
     if (list == 2) return read(kTriangleTree);
     if (triangles > 0) return read(kPointTree);
-    return ahead(movingBoxOf(pointParticles(primitives, i), pathStart, pathEnd,
+    return ahead(movingBoxOf(pointParticles(primitives, i), pathStart, pathEnd, pathReach,
                              primitives.pointRadius[i] + margin / 2));
   };
 
@@ -823,10 +877,8 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                                              0,
                                              search.selfFirst,
                                              search.tree == BvhTree::IsolatedPoints,
-                                             PrimitiveBox::empty(),
-                                             PrimitiveBox::empty(),
-                                             bvh.startBoxes[tree].data(),
-                                             bvh.endBoxes[tree].data(),
+                                             {PrimitiveBox::empty(), PrimitiveBox::empty()},
+                                             bvh.boxEnds[tree].data(),
                                              since};
                         for (std::size_t k = r.begin(); k != r.end(); ++k) {
                           const Index self = queries[k];
@@ -839,7 +891,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                                                                                          : 0,
                                                    self);
                           query.self = self;
-                          query.selfStart = box.start, query.selfEnd = box.end;
+                          query.selfEnds = {box.start, box.end};
                           bvh.forEachOverlap(search.tree, box.swept, &keepExtension, &query);
                         }
                         query.found.append(query.kept.data(), query.keptCount);
@@ -966,18 +1018,19 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
 BroadPhaseStats findCandidatePairsBruteForce(CandidatePairs& out,
                                              const CollisionPrimitives& primitives,
                                              std::span<const Vec3> x, std::span<const Vec3> p,
-                                             std::span<const Real> w, Real margin) {
+                                             std::span<const Real> w, Real margin,
+                                             std::span<const Vec3> reach) {
   BroadPhaseStats stats;
   out.clear();
   std::vector<MovingBox> pointBoxes, edgeBoxes, triangleBoxes;
   for (std::size_t i = 0; i < primitives.points(); ++i)
-    pointBoxes.push_back(
-        movingBoxOf(pointParticles(primitives, i), x, p, primitives.pointRadius[i] + margin / 2));
+    pointBoxes.push_back(movingBoxOf(pointParticles(primitives, i), x, p, reach,
+                                     primitives.pointRadius[i] + margin / 2));
   for (std::size_t i = 0; i < primitives.edges(); ++i)
-    edgeBoxes.push_back(
-        movingBoxOf(edgeParticles(primitives, i), x, p, primitives.edgeRadius[i] + margin / 2));
+    edgeBoxes.push_back(movingBoxOf(edgeParticles(primitives, i), x, p, reach,
+                                    primitives.edgeRadius[i] + margin / 2));
   for (std::size_t i = 0; i < primitives.triangles(); ++i)
-    triangleBoxes.push_back(movingBoxOf(triangleParticles(primitives, i), x, p,
+    triangleBoxes.push_back(movingBoxOf(triangleParticles(primitives, i), x, p, reach,
                                         primitives.triangleRadius[i] + margin / 2));
   for (const auto* boxes : {&pointBoxes, &edgeBoxes, &triangleBoxes})
     for (const MovingBox& box : *boxes) stats.skippedPrimitives += box.swept.isEmpty();

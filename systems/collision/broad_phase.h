@@ -65,9 +65,12 @@ PrimitiveBox sweptBox(std::span<const Index> particles, std::span<const Vec3> x,
 // out.formerIndex which of them were pairs before the call. `bvh` is the world's broad phase
 // state: reused between calls, it is refit while the primitive counts stay the same. Once its
 // scratch has grown, a call allocates nothing.
+// `x` and `p` are the ends of each particle's straight path, `reach` (empty: none) the half
+// extents of a box around its path's point (CandidatePairs::pathReach).
 BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
                                    const CollisionPrimitives& primitives, std::span<const Vec3> x,
-                                   std::span<const Vec3> p, std::span<const Real> w, Real margin);
+                                   std::span<const Vec3> p, std::span<const Real> w, Real margin,
+                                   std::span<const Vec3> reach = {});
 
 // The extrapolated end of each particle's motion over the rest of the step, into `end`: the
 // end of `remaining` substeps of length h, from the substep's prediction p = x + h v. Free
@@ -99,9 +102,12 @@ void setMotionFrame(CandidatePairs& pairs, std::span<const Vec3> x, std::span<co
 // its position in `start` at substep boundary `from` to its position in `end` stretched by
 // `stretch` (a path through `end` and on, to boundary `to`), each taken in the frame (less the
 // frame's offset at its instant).
+// A particle marked in `held` (empty: none) gets a held path instead: the middle of that path's
+// box, with its half extents as pathReach.
 void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::span<const Vec3> end,
                      const Vec3& startOffset = Vec3::Zero(), const Vec3& endOffset = Vec3::Zero(),
-                     int from = 0, int to = 1, Real stretch = 1);
+                     int from = 0, int to = 1, Real stretch = 1,
+                     std::span<const std::uint8_t> held = {});
 
 // How far a particle may stray from its path with no crossing escaping the candidate
 // set: kBoundSlackFraction × (2 r_min + margin), r_min the smallest primitive radius. Two
@@ -176,6 +182,7 @@ Vec3 clampIntoBounds(const CandidatePairs& pairs, std::size_t i, const Vec3& p);
 BroadPhaseStats findCandidatePairsBruteForce(CandidatePairs& out,
                                              const CollisionPrimitives& primitives,
                                              std::span<const Vec3> x, std::span<const Vec3> p,
-                                             std::span<const Real> w, Real margin);
+                                             std::span<const Real> w, Real margin,
+                                             std::span<const Vec3> reach = {});
 
 }  // namespace nucleon

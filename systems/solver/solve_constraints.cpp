@@ -92,9 +92,9 @@ void redetectFromSolve(SolvePools& pools, SolveReport& report) {
   } else {
     // The substep's motion, on in a straight line to the step's end.
     setMotionBounds(pairs, particles.x, particles.p, start, end, substep, last,
-                    Real(last - substep));
+                    Real(last - substep), pairs.heldPath);
     findCandidatePairs(pairs, pools.bvh, pools.primitives, pairs.pathStart, pairs.pathEnd,
-                       particles.w, kPrimitiveContactMargin);
+                       particles.w, kPrimitiveContactMargin, pairs.pathReach);
     growParticleBounds(pairs, slack);
   }
   ++report.redetections;
