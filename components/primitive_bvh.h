@@ -96,7 +96,8 @@ struct BoxEnds {
   PrimitiveBox end;
 };
 
-inline bool meetInMotion(const BoxEnds& a, const BoxEnds& b, double since = 0) {
+[[gnu::always_inline]] inline bool meetInMotion(const BoxEnds& a, const BoxEnds& b,
+                                                double since = 0) {
   return meetInMotion(a.start, a.end, b.start, b.end, since);
 }
 
@@ -139,6 +140,9 @@ class PrimitiveBvh {
   // `treeA` and one of `treeB` whose boxes overlap: every such pair, in no particular order and
   // from many threads at once (Embree's dual-tree rtcCollide, which tests boxes four or eight at
   // a time). A tree met with itself reports each pair once, as a < b. Call between two commits.
+  // The pairs are those of the trees' leaf bounds, which are the boxes, except that an empty box
+  // is bounded by the point at the origin: the visitor rejects pairs with an empty box (the
+  // broad phase's moving-box test does, before any other use of the pair).
   using PairVisitor = void (*)(void* context, const Index* a, const Index* b, std::size_t count);
   void forEachOverlappingPair(BvhTree treeA, BvhTree treeB, PairVisitor visit, void* context) const;
 

@@ -241,13 +241,15 @@ void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
   std::uint64_t kept[kBatch];
   std::size_t keptCount = 0;
   for (std::size_t k = 0; k < count; ++k) {
-    if (!meetInMotion(f.endsA[a[k]], f.endsB[b[k]])) continue;
     Index first = a[k], second = b[k];
     // The IsolatedPoints tree's primitives map to points; they ascend, so first < second holds.
     if constexpr (kKind == PairKind::VertexEdge || kKind == PairKind::VertexVertex)
       first = f.isolatedPoints[first];
     if constexpr (kKind == PairKind::VertexVertex) second = f.isolatedPoints[second];
+    // Neighbours that share a particle, a third of the overlaps on a cloth, always meet: the
+    // cheaper test first.
     if (!admissible(prims, f.w, kKind, first, second)) continue;
+    if (!meetInMotion(f.endsA[a[k]], f.endsB[b[k]])) continue;
     const std::uint64_t key = std::uint64_t{first} << 32 | second;
     if (staged) {
       std::vector<std::uint64_t>& stage = (*f.staging)[static_cast<std::size_t>(slot)];
@@ -704,7 +706,7 @@ struct ExtensionQuery {
 
 void keepExtension(void* raw, Index partner) {
   ExtensionQuery& q = *static_cast<ExtensionQuery*>(raw);
-  if (!meetInMotion(q.selfEnds, q.partners[partner], q.since)) return;
+  const BoxEnds& partnerEnds = q.partners[partner];
   if (q.partnerIsolated) partner = q.isolatedPoints[partner];
   Index first = q.selfFirst ? q.self : partner, second = q.selfFirst ? partner : q.self;
   if (q.kind == PairKind::EdgeEdge || q.kind == PairKind::VertexVertex) {
@@ -712,6 +714,7 @@ void keepExtension(void* raw, Index partner) {
     if (first > second) std::swap(first, second);
   }
   if (!admissible(*q.primitives, q.w, q.kind, first, second)) return;
+  if (!meetInMotion(q.selfEnds, partnerEnds, q.since)) return;
   q.kept[q.keptCount++] = std::uint64_t{first} << 32 | second;
   if (q.keptCount == q.kept.size()) q.found.append(q.kept.data(), q.keptCount), q.keptCount = 0;
 }

@@ -5,11 +5,16 @@
 // when a substep's prediction leaves the particles' bounds (withinParticleBounds): the research
 // recommendation of ARCHITECTURE.md §4, and the cost of a broad phase divided by the substeps.
 //
-// Each primitive gets its swept box: the box of its vertices at x and at p, grown by its radius
-// plus half the margin and rounded outward to float. Two boxes overlap exactly when the two
-// primitives' swept hulls may come within (radius A + radius B + margin) of each other in every
-// axis, so a pair whose boxes are apart cannot touch during the substep if each vertex moves on a
-// straight line. The candidates are the box-overlapping pairs of these kinds:
+// Each primitive gets a moving box: at the start, the box of its vertices at x, at the end the box
+// of its vertices at p, in between the interpolation of the two, each grown by its radius plus
+// half the margin and rounded outward to float. If every vertex moves on a straight line from x
+// to p, a vertex's position at an instant is the interpolation of its ends, so the box of the
+// vertices at that instant (the box of interpolations) lies inside the interpolated box. Two
+// primitives whose moving boxes meet at no instant (meetInMotion) cannot come within
+// (radius A + radius B + margin) of each other in every axis during the motion. Neighbours that
+// move together are not paired, however far they move; the swept box (the box of the two ends),
+// which the trees hold, would pair them with every primitive their motion passes over. The
+// candidates are the pairs of these kinds whose moving boxes meet:
 //
 //   VertexFace    every point against every triangle
 //   EdgeEdge      every edge against every other edge
@@ -23,12 +28,13 @@
 // findCandidatePairs keeps the boxes in Embree trees (components/primitive_bvh.h), refit from one
 // call to the next while the primitive counts stay, and finds each kind's pairs with one
 // dual-tree traversal (rtcCollide: points against triangles, edges against edges, isolated points
-// against edges and against each other), in parallel, every overlapping pair of boxes once per
-// traversal (a self-traversal keeps first < second). The threads' pairs are then put in order by
-// a counting sort on the first index and a sort of each first index's partners, so the result is
-// the same sorted list for any thread count. (Per-primitive point queries, which Embree culls
-// with the sphere around the query box, cost 1.7× as much on a folded 128² cloth.)
-// findCandidatePairsBruteForce tests every pair of boxes: the reference.
+// against edges and against each other), in parallel, every overlapping pair of swept boxes once
+// per traversal (a self-traversal keeps first < second), each then kept if the moving boxes meet.
+// The threads' pairs are then put in order by a counting sort on the first index and a sort of each
+// first index's partners, so the result is the same sorted list for any thread count.
+// (Per-primitive point queries, which Embree culls with the sphere around the query box, cost 1.7×
+// as much on a folded 128² cloth.) findCandidatePairsBruteForce tests every pair of moving boxes:
+// the reference.
 #pragma once
 
 #include <array>

@@ -115,17 +115,16 @@ bool onCandidate(RTCPointQueryFunctionArguments* args) {
   return false;
 }
 
-// What a collide callback needs: both trees' boxes for the exact test, and the caller's visitor.
+// What a collide callback needs: the caller's visitor.
 struct CollideQuery {
-  const PrimitiveBox* boxesA;
-  const PrimitiveBox* boxesB;
   PrimitiveBvh::PairVisitor visit;
   void* context;
   bool self;  // a tree met with itself: Embree reports (a, b) and (b, a), and (a, a)
 };
 
-// Embree reports pairs of leaf primitives whose leaves' bounds overlap (user geometry): the exact
-// test of the two primitives' own boxes is ours.
+// Embree reports pairs of leaf primitives whose leaves' bounds overlap (user geometry); a leaf's
+// bounds are its box (an empty box: the origin, which the visitor rejects), so they are passed on
+// without another test of the same boxes.
 void onCollisions(void* user, RTCCollision* collisions, unsigned count) {
   const auto& q = *static_cast<const CollideQuery*>(user);
   constexpr unsigned kBatch = 256;
@@ -134,7 +133,6 @@ void onCollisions(void* user, RTCCollision* collisions, unsigned count) {
   for (unsigned i = 0; i < count; ++i) {
     const RTCCollision& c = collisions[i];
     if (q.self && c.primID0 >= c.primID1) continue;
-    if (!overlaps(q.boxesA[c.primID0], q.boxesB[c.primID1])) continue;
     a[kept] = c.primID0, b[kept] = c.primID1;
     if (++kept == kBatch) q.visit(q.context, a, b, kept), kept = 0;
   }
@@ -207,7 +205,7 @@ void PrimitiveBvh::forEachOverlappingPair(BvhTree treeA, BvhTree treeB, PairVisi
                                           void* context) const {
   const std::size_t a = static_cast<std::size_t>(treeA), b = static_cast<std::size_t>(treeB);
   if (!embree_ || !embree_->scene[a] || !embree_->scene[b]) return;
-  CollideQuery query{boxes[a].data(), boxes[b].data(), visit, context, a == b};
+  CollideQuery query{visit, context, a == b};
   rtcCollide(embree_->scene[a], embree_->scene[b], &onCollisions, &query);
 }
 
