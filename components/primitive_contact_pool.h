@@ -81,6 +81,12 @@ struct PrimitiveContactPool {
   std::array<std::vector<double>, 3> primitiveDeviation;
   std::array<std::vector<std::uint8_t>, 3> primitiveMoved;
   std::array<std::vector<double>, 3> primitiveTravel;  // … and the most one travels, |p − x|
+  // The narrow phase's stray beside the primitive's radius: one record read per side of a pair.
+  struct StrayAndRadius {
+    double stray;
+    double radius;
+  };
+  std::array<std::vector<StrayAndRadius>, 3> primitiveStray;
   // Per particle: what the fail-safe holds it to (primitive_contacts.h, resolveCrossings): its
   // precedence (0: its own predicted motion, 1: its impact zone's rigid motion, higher: carried
   // by the rigid motion of a kinematic body, a lower object and triangle first), and, when

@@ -719,11 +719,20 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
         if (!(contacts.stray[id] <= most)) most = contacts.stray[id];
       return most;
     });
+    const std::array<const std::vector<Real>*, 3> radii = {
+        &primitives.pointRadius, &primitives.edgeRadius, &primitives.triangleRadius};
+    for (std::size_t list = 0; list < 3; ++list) {
+      const std::vector<double>& stray = contacts.primitiveDeviation[list];
+      std::vector<PrimitiveContactPool::StrayAndRadius>& out = contacts.primitiveStray[list];
+      out.resize(stray.size());
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, stray.size(), kParticleGrain),
+                        [&](const tbb::blocked_range<std::size_t>& r) {
+                          for (std::size_t i = r.begin(); i != r.end(); ++i)
+                            out[i] = {stray[i], double((*radii[list])[i])};
+                        });
+    }
   }
-  const std::array<const Real*, 3> radii = {primitives.pointRadius.data(),
-                                            primitives.edgeRadius.data(),
-                                            primitives.triangleRadius.data()};
-  const auto& strayOf = contacts.primitiveDeviation;
+  const auto& strayOf = contacts.primitiveStray;
   // One pass: each fixed chunk of candidates keeps its contacts in candidate order, and the
   // chunks are concatenated in order, whatever the thread count. A pair whose carried bound
   // keeps it out of reach over this substep's motion is not measured again (see the header).
@@ -742,8 +751,10 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
             if (carry && contacts.lowerBound[i] > -kInfinity) {
               // Also a lower bound on the distance at the start of the substep.
               const int listA = primitiveListOf(kind, true), listB = primitiveListOf(kind, false);
-              const double over = contacts.lowerBound[i] - strayOf[listA][a] - strayOf[listB][b];
-              const Real radius = radii[listA][a] + radii[listB][b];
+              const PrimitiveContactPool::StrayAndRadius sideA = strayOf[listA][a],
+                                                         sideB = strayOf[listB][b];
+              const double over = contacts.lowerBound[i] - sideA.stray - sideB.stray;
+              const Real radius = Real(sideA.radius) + Real(sideB.radius);
               if (over > double(radius) + double(kPrimitiveContactMargin) + kBoundTolerance) {
                 contacts.startDistance[i] = over;
                 contacts.lowerBound[i] = over;
