@@ -64,6 +64,9 @@ struct CandidatePairs {
   std::vector<Vec3> pathReach;
   int pathFrom = 0;
   int pathTo = 1;
+  // Every path is a point held at its end (a set carried into a new step, not extended since):
+  // carrying it again changes nothing.
+  bool pathsHeld = false;
   Real boundSlack = 0;
   std::vector<Vec3> motionLower;
   std::vector<Vec3> motionUpper;

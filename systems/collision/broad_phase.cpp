@@ -540,6 +540,7 @@ void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::sp
   pairs.motionUpper.resize(n);
   pairs.pathFrom = from;
   pairs.pathTo = to;
+  pairs.pathsHeld = false;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kBoxGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
@@ -649,14 +650,17 @@ bool carryPairsIntoStep(CandidatePairs& pairs, PrimitiveBvh& bvh, std::span<cons
   // ever after: the paths become points at their ends, the primitives' boxes their end boxes.
   pairs.pathFrom = 0;
   pairs.pathTo = std::max(substeps, 1);
-  pairs.pathStart = pairs.pathEnd;
-  for (std::size_t i = 0; i < n; ++i) {
-    pairs.motionLower[i] = pairs.pathEnd[i] - pairs.pathReach[i];
-    pairs.motionUpper[i] = pairs.pathEnd[i] + pairs.pathReach[i];
-  }
   pairs.boundSlack = slack;
-  for (std::size_t tree = 0; tree < kBvhTreeCount; ++tree)
-    for (BoxEnds& ends : bvh.boxEnds[tree]) ends.start = ends.end;
+  if (!pairs.pathsHeld) {
+    pairs.pathStart = pairs.pathEnd;
+    for (std::size_t i = 0; i < n; ++i) {
+      pairs.motionLower[i] = pairs.pathEnd[i] - pairs.pathReach[i];
+      pairs.motionUpper[i] = pairs.pathEnd[i] + pairs.pathReach[i];
+    }
+    for (std::size_t tree = 0; tree < kBvhTreeCount; ++tree)
+      for (BoxEnds& ends : bvh.boxEnds[tree]) ends.start = ends.end;
+    pairs.pathsHeld = true;
+  }
   outside = tally.outside;
   return true;
 }
@@ -752,6 +756,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
       grown[i] = 1, ++outside;
   if (outside == 0) return true;
   if (outside * kExtendShare > n) return false;
+  pairs.pathsHeld = false;
   // The new paths, through `end` and on to the window's end, written over the whole window
   // (extrapolated back to its start) so that every path stays linear over it; the new pairs are
   // tested over the window's part from `startAt` on, which is all that is ahead.
