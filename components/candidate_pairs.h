@@ -56,9 +56,9 @@ struct CandidatePairs {
   // particles' paths over that window, and two primitives are a pair only if their moving boxes
   // meet at some instant of it: neighbours that move together are not paired however far they
   // move (broad_phase.h). motionLower/motionUpper are the boxes of the paths.
-  // A particle whose course the solve may bend (one in contact, one that left its bounds once)
-  // is held instead: its path is the middle of its motion's box, a point, and pathReach the
-  // box's half extents, added to the slack (a box that does not move, as a swept box).
+  // A particle that left its bounds once, whose course the solve may bend again, is held
+  // instead: its path is the middle of its motion's box, a point, and pathReach the box's half
+  // extents, added to the slack (a box that does not move, as a swept box).
   std::vector<Vec3> pathStart;
   std::vector<Vec3> pathEnd;
   std::vector<Vec3> pathReach;
@@ -78,8 +78,6 @@ struct CandidatePairs {
   // in the frame; with no frame set, the offset is zero.
   std::vector<Vec3> frameOrigin;
   int frameSubstep = 0;
-  // Scratch of the world's broad phase: per particle, whether its path is held (in contact).
-  std::vector<std::uint8_t> heldPath;
   // Scratch of setMotionFrame: one coordinate of every free particle's motion.
   std::vector<Real> frameScratch;
   // Which set this is: every change of the pairs (a broad phase, full or incremental) counts one

@@ -116,9 +116,6 @@ class PrimitiveBvh {
   // The boxes each tree bounds, by tree (index with the BvhTree value); primitive i of a tree is
   // boxes[tree][i]. Written by the broad phase, then commit().
   std::array<std::vector<PrimitiveBox>, kBvhTreeCount> boxes;
-  std::vector<PrimitiveBox>& treeBoxes(BvhTree tree) {
-    return boxes[static_cast<std::size_t>(tree)];
-  }
 
   // Per tree, each primitive's box at the start and at the end of the motion it was found for
   // (its particles' path ends, grown like the swept box): the moving box the pair tests use
@@ -161,7 +158,7 @@ class PrimitiveBvh {
   // threads outside the arena, as first << 32 | second, before they are put in order.
   std::vector<std::vector<std::uint64_t>> threadPairs;
   std::vector<std::vector<std::uint64_t>> threadStaging;  // per arena thread: pairs not yet listed
-  // Incremental re-detection: which particles grew their motion box, the primitives with one
+  // Incremental re-detection: which particles got a new (held) path, the primitives with one
   // (points, edges, triangles), the new pairs of each kind, and the merged pair lists.
   std::vector<std::uint8_t> grownParticle;
   std::array<std::vector<Index>, 3> changedPrimitives;

@@ -23,24 +23,37 @@ namespace {
 constexpr double kMaxCoordinate = 1e18;
 constexpr std::size_t kBoxGrain = 2048;
 constexpr std::size_t kPairGrain = 4096;
-constexpr bool kHoldBentPaths = true;
 constexpr auto kTriangleTree = static_cast<std::size_t>(BvhTree::Triangles);
 constexpr auto kEdgeTree = static_cast<std::size_t>(BvhTree::Edges);
 constexpr auto kIsolatedTree = static_cast<std::size_t>(BvhTree::IsolatedPoints);
 constexpr auto kPointTree = static_cast<std::size_t>(BvhTree::Points);
 
-// The box a fraction t of the way from `a` to `b`, rounded outward to float.
-PrimitiveBox boxBetween(const PrimitiveBox& a, const PrimitiveBox& b, double t) {
-  if (a.isEmpty() || b.isEmpty()) return PrimitiveBox::empty();
+// The double box lower … upper grown by `grow`, rounded to the nearest float and then one float
+// further out: the float box contains the double one whatever the rounding of the conversion and
+// of the double arithmetic before it. Empty if a coordinate is not finite or beyond ±1e18.
+PrimitiveBox outwardBox(const double (&lower)[3], const double (&upper)[3], double grow) {
+  if (!(std::abs(grow) <= kMaxCoordinate)) return PrimitiveBox::empty();
   constexpr float kInfinite = std::numeric_limits<float>::infinity();
   PrimitiveBox box;
   for (int k = 0; k < 3; ++k) {
-    const double lower = (1 - t) * a.lower[k] + t * b.lower[k];
-    const double upper = (1 - t) * a.upper[k] + t * b.upper[k];
-    box.lower[k] = std::nextafter(static_cast<float>(lower), -kInfinite);
-    box.upper[k] = std::nextafter(static_cast<float>(upper), kInfinite);
+    const double lo = lower[k] - grow, hi = upper[k] + grow;
+    if (!(std::abs(lo) <= kMaxCoordinate && std::abs(hi) <= kMaxCoordinate))
+      return PrimitiveBox::empty();
+    box.lower[k] = std::nextafter(static_cast<float>(lo), -kInfinite);
+    box.upper[k] = std::nextafter(static_cast<float>(hi), kInfinite);
   }
   return box;
+}
+
+// The box a fraction t of the way from `a` to `b`, rounded outward to float.
+PrimitiveBox boxBetween(const PrimitiveBox& a, const PrimitiveBox& b, double t) {
+  if (a.isEmpty() || b.isEmpty()) return PrimitiveBox::empty();
+  double lower[3], upper[3];
+  for (int k = 0; k < 3; ++k) {
+    lower[k] = (1 - t) * a.lower[k] + t * b.lower[k];
+    upper[k] = (1 - t) * a.upper[k] + t * b.upper[k];
+  }
+  return outwardBox(lower, upper, 0);
 }
 
 using Clock = std::chrono::steady_clock;
@@ -90,17 +103,7 @@ PrimitiveBox reachBox(std::span<const Index> ids, std::span<const Vec3> centre,
       lower[k] = std::min(lower[k], c - r);
       upper[k] = std::max(upper[k], c + r);
     }
-  if (!(std::abs(double(inflation)) <= kMaxCoordinate)) return PrimitiveBox::empty();
-  PrimitiveBox box;
-  constexpr float kInfinite = std::numeric_limits<float>::infinity();
-  for (int k = 0; k < 3; ++k) {
-    const double lo = lower[k] - inflation, hi = upper[k] + inflation;
-    if (!(std::abs(lo) <= kMaxCoordinate && std::abs(hi) <= kMaxCoordinate))
-      return PrimitiveBox::empty();
-    box.lower[k] = std::nextafter(static_cast<float>(lo), -kInfinite);
-    box.upper[k] = std::nextafter(static_cast<float>(hi), kInfinite);
-  }
-  return box;
+  return outwardBox(lower, upper, inflation);
 }
 
 MovingBox movingBoxOf(std::span<const Index> ids, std::span<const Vec3> start,
@@ -383,25 +386,12 @@ PrimitiveBox sweptBox(std::span<const Index> particles, std::span<const Vec3> x,
         lower[k] = std::min(lower[k], v);
         upper[k] = std::max(upper[k], v);
       }
-  const double grow = inflation;
-  if (!(std::abs(grow) <= kMaxCoordinate)) return PrimitiveBox::empty();
-  PrimitiveBox box;
-  for (int k = 0; k < 3; ++k) {
-    // Rounded to the nearest float, then one float further out: the float box contains the
-    // double one whatever the rounding of the conversion and of the double arithmetic before it.
-    const double lo = lower[k] - grow, hi = upper[k] + grow;
-    if (!(std::abs(lo) <= kMaxCoordinate && std::abs(hi) <= kMaxCoordinate))
-      return PrimitiveBox::empty();
-    box.lower[k] = std::nextafter(static_cast<float>(lo), -std::numeric_limits<float>::infinity());
-    box.upper[k] = std::nextafter(static_cast<float>(hi), std::numeric_limits<float>::infinity());
-  }
-  return box;
+  return outwardBox(lower, upper, inflation);
 }
 
 BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
                                    const CollisionPrimitives& primitives, std::span<const Vec3> x,
-                                   std::span<const Vec3> p, std::span<const Real> w, Real margin,
-                                   std::span<const Vec3> reach) {
+                                   std::span<const Vec3> p, std::span<const Real> w, Real margin) {
   BroadPhaseStats stats;
   const std::size_t points = primitives.points(), edges = primitives.edges(),
                     triangles = primitives.triangles();
@@ -409,11 +399,11 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
   Clock::time_point start = Clock::now();
   stats.skippedPrimitives =
       computeBoxes(bvh, BvhTree::Points, points, primitives, primitives.pointRadius, pointParticles,
-                   x, p, reach, margin) +
+                   x, p, {}, margin) +
       computeBoxes(bvh, BvhTree::Edges, edges, primitives, primitives.edgeRadius, edgeParticles, x,
-                   p, reach, margin) +
+                   p, {}, margin) +
       computeBoxes(bvh, BvhTree::Triangles, triangles, primitives, primitives.triangleRadius,
-                   triangleParticles, x, p, reach, margin);
+                   triangleParticles, x, p, {}, margin);
   bvh.isolatedPoints.clear();
   for (std::size_t i = 0; i < points; ++i)
     if (primitives.pointIsolated[i]) bvh.isolatedPoints.push_back(static_cast<Index>(i));
@@ -530,8 +520,8 @@ void holdPath(CandidatePairs& pairs, std::size_t i, const Vec3& a, const Vec3& b
 }  // namespace
 
 void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::span<const Vec3> end,
-                     const Vec3& startOffset, const Vec3& endOffset, int from, int to, Real stretch,
-                     std::span<const std::uint8_t> held) {
+                     const Vec3& startOffset, const Vec3& endOffset, int from, int to,
+                     Real stretch) {
   const std::size_t n = start.size();
   pairs.pathStart.resize(n);
   pairs.pathEnd.resize(n);
@@ -546,10 +536,6 @@ void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::sp
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
                         const Vec3 a = start[i] - startOffset;
                         const Vec3 b = a + stretch * (end[i] - endOffset - a);
-                        if (i < held.size() && held[i]) {
-                          holdPath(pairs, i, a, b);
-                          continue;
-                        }
                         pairs.pathStart[i] = a, pairs.pathEnd[i] = b;
                         pairs.motionLower[i] = a.cwiseMin(b);
                         pairs.motionUpper[i] = a.cwiseMax(b);
@@ -653,10 +639,13 @@ bool carryPairsIntoStep(CandidatePairs& pairs, PrimitiveBvh& bvh, std::span<cons
   pairs.boundSlack = slack;
   if (!pairs.pathsHeld) {
     pairs.pathStart = pairs.pathEnd;
-    for (std::size_t i = 0; i < n; ++i) {
-      pairs.motionLower[i] = pairs.pathEnd[i] - pairs.pathReach[i];
-      pairs.motionUpper[i] = pairs.pathEnd[i] + pairs.pathReach[i];
-    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kBoxGrain),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                          pairs.motionLower[i] = pairs.pathEnd[i] - pairs.pathReach[i];
+                          pairs.motionUpper[i] = pairs.pathEnd[i] + pairs.pathReach[i];
+                        }
+                      });
     for (std::size_t tree = 0; tree < kBvhTreeCount; ++tree)
       for (BoxEnds& ends : bvh.boxEnds[tree]) ends.start = ends.end;
     pairs.pathsHeld = true;
@@ -757,29 +746,18 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   if (outside == 0) return true;
   if (outside * kExtendShare > n) return false;
   pairs.pathsHeld = false;
-  // The new paths, through `end` and on to the window's end, written over the whole window
-  // (extrapolated back to its start) so that every path stays linear over it; the new pairs are
-  // tested over the window's part from `startAt` on, which is all that is ahead.
-  const Real span = Real(pairs.pathTo - offsets.startAt);
-  const Real stretch = span / Real(offsets.endAt - offsets.startAt);
-  const Real back = Real(offsets.startAt - pairs.pathFrom) / span;
+  // A particle off its course once is likely to be bent again (a contact holds it, a fold turns
+  // it): its new path is held over the box of its motion from `start` through `end` on to the
+  // window's end, which any course inside that box keeps to, at any instant. The other paths do
+  // not change, and the new pairs are tested over the window's part from `startAt` on, which is
+  // all that is ahead.
+  const Real stretch = Real(pairs.pathTo - offsets.startAt) / Real(offsets.endAt - offsets.startAt);
   const double since =
       double(offsets.startAt - pairs.pathFrom) / double(pairs.pathTo - pairs.pathFrom);
-  // A particle off its course once is likely to be bent again (a contact holds it, a fold turns
-  // it): its new path is held over the box of its motion, which any course inside that box
-  // keeps to.
   for (std::size_t i = 0; i < n; ++i) {
     if (!grown[i]) continue;
     const Vec3 a = start[i] - offsets.start;
-    const Vec3 b = a + stretch * (end[i] - offsets.end - a);
-    if (kHoldBentPaths) {
-      holdPath(pairs, i, a, b);
-      continue;
-    }
-    pairs.pathStart[i] = a - back * (b - a), pairs.pathEnd[i] = b;
-    pairs.pathReach[i] = Vec3::Zero();
-    pairs.motionLower[i] = a.cwiseMin(b);
-    pairs.motionUpper[i] = a.cwiseMax(b);
+    holdPath(pairs, i, a, a + stretch * (end[i] - offsets.end - a));
   }
   pairs.boundSlack = slack;
 

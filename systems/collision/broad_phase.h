@@ -71,12 +71,10 @@ PrimitiveBox sweptBox(std::span<const Index> particles, std::span<const Vec3> x,
 // out.formerIndex which of them were pairs before the call. `bvh` is the world's broad phase
 // state: reused between calls, it is refit while the primitive counts stay the same. Once its
 // scratch has grown, a call allocates nothing.
-// `x` and `p` are the ends of each particle's straight path, `reach` (empty: none) the half
-// extents of a box around its path's point (CandidatePairs::pathReach).
+// `x` and `p` are the ends of each particle's straight path.
 BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
                                    const CollisionPrimitives& primitives, std::span<const Vec3> x,
-                                   std::span<const Vec3> p, std::span<const Real> w, Real margin,
-                                   std::span<const Vec3> reach = {});
+                                   std::span<const Vec3> p, std::span<const Real> w, Real margin);
 
 // The extrapolated end of each particle's motion over the rest of the step, into `end`: the
 // end of `remaining` substeps of length h, from the substep's prediction p = x + h v. Free
@@ -108,20 +106,17 @@ void setMotionFrame(CandidatePairs& pairs, std::span<const Vec3> x, std::span<co
 // its position in `start` at substep boundary `from` to its position in `end` stretched by
 // `stretch` (a path through `end` and on, to boundary `to`), each taken in the frame (less the
 // frame's offset at its instant).
-// A particle marked in `held` (empty: none) gets a held path instead: the middle of that path's
-// box, with its half extents as pathReach.
 void setMotionBounds(CandidatePairs& pairs, std::span<const Vec3> start, std::span<const Vec3> end,
                      const Vec3& startOffset = Vec3::Zero(), const Vec3& endOffset = Vec3::Zero(),
-                     int from = 0, int to = 1, Real stretch = 1,
-                     std::span<const std::uint8_t> held = {});
+                     int from = 0, int to = 1, Real stretch = 1);
 
 // How far a particle may stray from its path with no crossing escaping the candidate
 // set: kBoundSlackFraction × (2 r_min + margin), r_min the smallest primitive radius. Two
-// primitives whose boxes are apart are at least r_a + r_b + margin ≥ 2 r_min + margin apart over
-// their particles' motion boxes; if every particle strays at most that slack, they stay at least
-// a tenth of it apart (room for the float rounding of boxes and bounds, for coordinates up to a
-// few kilometres), so they cannot cross. They may come within their contact distance without a
-// contact: the next broad phase, a substep later at most, makes one.
+// primitives whose boxes do not meet are at least r_a + r_b + margin ≥ 2 r_min + margin apart
+// around their particles' paths at every instant; if every particle strays at most that slack, they
+// stay at least a tenth of it apart (room for the float rounding of boxes and bounds, for
+// coordinates up to a few kilometres), so they cannot cross. They may come within their contact
+// distance without a contact: the next broad phase, a substep later at most, makes one.
 constexpr Real kBoundSlackFraction = Real(0.45);
 Real boundSlack(const CollisionPrimitives& primitives, Real margin);
 
@@ -130,14 +125,16 @@ void growParticleBounds(CandidatePairs& pairs, Real slack);
 
 // Makes the pairs complete again where some particles left their bounds, without finding them
 // all again (the incremental re-detection of I-Cloth, Tang et al. 2018): each particle whose
-// `position` is outside its bounds gets the motion box of `start` to `end` and bounds from it;
-// the primitives with such a particle get their boxes again, the trees are refit, those
-// primitives are queried, their new pairs are merged into the set in order and their pairs whose
-// boxes came apart are dropped. The set is then the one findCandidatePairs would give over the
-// motion boxes, and CandidatePairs::formerIndex says where each pair was before. Returns false,
-// changing nothing, when more than 1/kExtendShare of the particles left their bounds, or the
-// trees were not built for the current primitives: a full findCandidatePairs is then cheaper.
-// `offsets` are the frame's offsets at the instants of `position`, `start` and `end`.
+// `position` (or `start`) is outside its bounds gets a held path over the box of its motion from
+// `start` through `end` on to the window's end (CandidatePairs::pathReach); the primitives with
+// such a particle get their moving boxes again, the trees are refit, those primitives are
+// queried over the rest of the window, their new pairs are merged into the set in order and
+// their pairs whose boxes no longer meet are dropped. The set is then the one findCandidatePairs
+// would give over the paths and held boxes, and CandidatePairs::formerIndex says where each pair
+// was before. Returns false, changing nothing, when more than 1/kExtendShare of the particles left
+// their bounds, or the trees were not built for the current primitives: a full findCandidatePairs
+// is then cheaper. `offsets` are the frame's offsets at the instants of `position`, `start` and
+// `end`.
 constexpr std::size_t kExtendShare = 8;
 struct FrameOffsets {
   Vec3 position = Vec3::Zero();

@@ -108,8 +108,9 @@ void measureStartDistances(PrimitiveContactPool& contacts, const CandidatePairs&
                            const CollisionPrimitives& primitives, const ParticlePool& particles);
 
 // Keeps the solve's final motion crossing-free (see the header comment): first clamps every free
-// particle into its bounds (CandidatePairs::boundLower/boundUpper; the world finds the pairs again
-// for the actual motion when the solve leaves them, so this only guards), then the CCD rounds.
+// particle into its bounds (CandidatePairs::pathPoint and boundSlack; the world finds the pairs
+// again for the actual motion when the solve leaves them, so this only guards), then the CCD
+// rounds.
 CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
                                 const CollisionPrimitives& primitives, ParticlePool& particles);
 

@@ -92,9 +92,9 @@ void redetectFromSolve(SolvePools& pools, SolveReport& report) {
   } else {
     // The substep's motion, on in a straight line to the step's end.
     setMotionBounds(pairs, particles.x, particles.p, start, end, substep, last,
-                    Real(last - substep), pairs.heldPath);
+                    Real(last - substep));
     findCandidatePairs(pairs, pools.bvh, pools.primitives, pairs.pathStart, pairs.pathEnd,
-                       particles.w, kPrimitiveContactMargin, pairs.pathReach);
+                       particles.w, kPrimitiveContactMargin);
     growParticleBounds(pairs, slack);
   }
   ++report.redetections;
