@@ -166,10 +166,9 @@ class PrimitiveBvh {
   std::vector<std::uint8_t> stalePair;  // per pair of the set: its boxes came apart
   // Per primitive (points, edges, triangles): whether it has a grown particle.
   std::array<std::vector<std::uint8_t>, 3> changedPrimitive;
-  // Per new pair: where it goes among the old ones (the first old pair not below it), or
-  // kDuplicate when it is one of them; per chunk of the old pairs, how many are kept before it.
-  std::vector<std::size_t> newPairPlace;
-  std::vector<std::size_t> newPairIndex;  // … compacted: which new pair each place is
+  // Per chunk of the old pairs: its first new pair in the merge, and how many pairs the merge
+  // keeps before it.
+  std::vector<std::size_t> chunkNewPairs;
   std::vector<std::size_t> keptBefore;
   std::vector<PairKind> mergedKind;
   std::vector<Index> mergedFirst;

@@ -13,6 +13,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
+#include <tbb/parallel_sort.h>
 #include <tbb/partitioner.h>
 #include <tbb/task_arena.h>
 
@@ -887,7 +888,8 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
       kindPairs.insert(kindPairs.end(), found.begin(), found.end());
   }
   for (auto& list : bvh.newPairs) {
-    std::sort(list.begin(), list.end());
+    // Keys are unique after the erase, so the order does not depend on the threads.
+    tbb::parallel_sort(list.begin(), list.end());
     list.erase(std::unique(list.begin(), list.end()), list.end());
   }
 
@@ -913,86 +915,69 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
           bvh.stalePair[i] = !meetInMotion(boxA.start, boxA.end, boxB.start, boxB.end, since);
         }
       });
-  // Each new pair's place among the old ones (bisection), the old pairs kept per chunk, then
-  // every chunk writes its old pairs and the new ones placed among them on its own.
+  // Both lists ascend in (kind, first, second), so they merge in one pass: each chunk of the old
+  // pairs takes the new pairs from its first old pair's key up to the next chunk's (one bisection
+  // per chunk, not per new pair), counts what it keeps, and then writes its old pairs and new
+  // ones in order at its place. A new pair equal to an old one is that pair (kept once, with its
+  // former index); the old ones are unique, and so are the new ones.
   const auto keyOf = [&](std::size_t i) {
     return std::tuple(pairs.kind[i], pairs.first[i], pairs.second[i]);
   };
-  constexpr std::size_t kDuplicate = ~std::size_t{0};
-  std::vector<std::size_t>& place = bvh.newPairPlace;  // per new pair, all kinds in order
-  place.resize(bvh.newPairs[0].size() + bvh.newPairs[1].size() + bvh.newPairs[2].size() +
-               bvh.newPairs[3].size());
-  {
-    std::size_t j = 0;
-    for (std::size_t kind = 0; kind < 4; ++kind) {
-      const std::vector<std::uint64_t>& list = bvh.newPairs[kind];
-      const std::size_t base = j;
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, list.size(), 256),
-                        [&](const tbb::blocked_range<std::size_t>& r) {
-                          for (std::size_t k = r.begin(); k != r.end(); ++k) {
-                            const auto pair = std::tuple(static_cast<PairKind>(kind),
-                                                         static_cast<Index>(list[k] >> 32),
-                                                         static_cast<Index>(list[k] & 0xffffffffu));
-                            const std::size_t low = firstNotBelow(keyOf, 0, old, pair);
-                            place[base + k] = low < old && keyOf(low) == pair ? kDuplicate : low;
-                          }
-                        });
-      j += list.size();
-    }
-  }
+  std::array<std::size_t, 5> kindStart{};  // where each kind's new pairs start in the one list
+  for (std::size_t kind = 0; kind < 4; ++kind)
+    kindStart[kind + 1] = kindStart[kind] + bvh.newPairs[kind].size();
+  const std::size_t found = kindStart[4];
+  const auto newPair = [&](std::size_t k) {
+    std::size_t kind = 0;
+    while (k >= kindStart[kind + 1]) ++kind;
+    const std::uint64_t key = bvh.newPairs[kind][k - kindStart[kind]];
+    return std::tuple(static_cast<PairKind>(kind), static_cast<Index>(key >> 32),
+                      static_cast<Index>(key & 0xffffffffu));
+  };
   const std::size_t chunks = old / kPairGrain + 1;
+  std::vector<std::size_t>& newFrom = bvh.chunkNewPairs;  // per chunk: its first new pair
+  newFrom.resize(chunks + 1);
+  newFrom[0] = 0, newFrom[chunks] = found;
+  tbb::parallel_for(std::size_t{1}, chunks, [&](std::size_t chunk) {
+    const std::size_t begin = chunk * kPairGrain;
+    newFrom[chunk] = begin < old ? firstNotBelow(newPair, 0, found, keyOf(begin)) : found;
+  });
+  // Visits chunk's merged pairs in order: emit(old index or kNewPair, kind, first, second).
+  const auto mergeChunk = [&](std::size_t chunk, auto&& emit) {
+    std::size_t i = chunk * kPairGrain, k = newFrom[chunk];
+    const std::size_t end = std::min(old, (chunk + 1) * kPairGrain), newEnd = newFrom[chunk + 1];
+    while (i < end || k < newEnd) {
+      if (k < newEnd) {
+        const auto key = newPair(k);
+        if (i == end || key < keyOf(i)) {
+          emit(CandidatePairs::kNewPair, std::get<0>(key), std::get<1>(key), std::get<2>(key));
+          ++k;
+          continue;
+        }
+        if (key == keyOf(i)) ++k;
+      }
+      if (!bvh.stalePair[i])
+        emit(static_cast<Index>(i), pairs.kind[i], pairs.first[i], pairs.second[i]);
+      ++i;
+    }
+  };
   bvh.keptBefore.assign(chunks + 1, 0);
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t chunk) {
     std::size_t kept = 0;
-    for (std::size_t i = chunk * kPairGrain; i < std::min(old, (chunk + 1) * kPairGrain); ++i)
-      kept += !bvh.stalePair[i];
+    mergeChunk(chunk, [&](Index, PairKind, Index, Index) { ++kept; });
     bvh.keptBefore[chunk + 1] = kept;
   });
   for (std::size_t chunk = 0; chunk < chunks; ++chunk)
     bvh.keptBefore[chunk + 1] += bvh.keptBefore[chunk];
-  // The places compacted over the pairs that are not duplicates (they ascend with the pairs), so
-  // that a chunk finds the new pairs placed before its first old pair by bisection.
-  std::vector<std::size_t>& newIndex = bvh.newPairIndex;  // which new pair each place is
-  newIndex.clear();
-  {
-    std::size_t kept = 0;
-    for (std::size_t k = 0; k < place.size(); ++k)
-      if (place[k] != kDuplicate) newIndex.push_back(k), place[kept++] = place[k];
-    place.resize(kept);
-  }
-  const std::vector<std::size_t>& added = place;
-  const std::size_t total = bvh.keptBefore[chunks] + added.size();
+  const std::size_t total = bvh.keptBefore[chunks];
   bvh.mergedKind.resize(total), bvh.mergedFirst.resize(total), bvh.mergedSecond.resize(total);
   pairs.formerIndex.resize(total);
-  // The new pairs of all kinds in one list, in order: kind by kind, each kind's keys ascending.
-  const auto newPair = [&](std::size_t k) {
-    std::size_t kind = 0;
-    while (k >= bvh.newPairs[kind].size()) k -= bvh.newPairs[kind].size(), ++kind;
-    const std::uint64_t key = bvh.newPairs[kind][k];
-    return std::tuple(static_cast<PairKind>(kind), static_cast<Index>(key >> 32),
-                      static_cast<Index>(key & 0xffffffffu));
-  };
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t chunk) {
-    const std::size_t begin = chunk * kPairGrain, end = std::min(old, (chunk + 1) * kPairGrain);
-    // New pairs placed at begin … end − 1 (and, for the last chunk, at old: after every pair).
-    std::size_t k = static_cast<std::size_t>(std::lower_bound(added.begin(), added.end(), begin) -
-                                             added.begin());
-    std::size_t out = bvh.keptBefore[chunk] + k;
-    const std::size_t stop = chunk + 1 == chunks ? old + 1 : end;
-    const auto writeNew = [&](std::size_t at) {
-      for (; k < added.size() && added[k] == at; ++k, ++out) {
-        const auto [kind, first, second] = newPair(newIndex[k]);
-        bvh.mergedKind[out] = kind, bvh.mergedFirst[out] = first, bvh.mergedSecond[out] = second;
-        pairs.formerIndex[out] = CandidatePairs::kNewPair;
-      }
-    };
-    for (std::size_t i = begin; i < stop; ++i) {
-      writeNew(i);
-      if (i == old || bvh.stalePair[i]) continue;
-      bvh.mergedKind[out] = pairs.kind[i], bvh.mergedFirst[out] = pairs.first[i];
-      bvh.mergedSecond[out] = pairs.second[i];
-      pairs.formerIndex[out++] = static_cast<Index>(i);
-    }
+    std::size_t out = bvh.keptBefore[chunk];
+    mergeChunk(chunk, [&](Index former, PairKind kind, Index first, Index second) {
+      bvh.mergedKind[out] = kind, bvh.mergedFirst[out] = first, bvh.mergedSecond[out] = second;
+      pairs.formerIndex[out++] = former;
+    });
   });
   pairs.kind.swap(bvh.mergedKind);
   pairs.first.swap(bvh.mergedFirst);
