@@ -696,12 +696,18 @@ struct ExtensionQuery {
   BoxEnds selfEnds;
   const BoxEnds* partners;
   double since;  // the part of the window the pairs are for: from the extension's start on
+  // A pair of two changed primitives is found by the queries of both: one of them keeps it. Per
+  // partner primitive (after the isolated points' mapping): whether it is changed; `lowerKeeps`:
+  // the two are of one list and the lower index keeps it, else the partner's own query does.
+  const std::uint8_t* partnerChanged;
+  bool lowerKeeps;
 };
 
 void keepExtension(void* raw, Index partner) {
   ExtensionQuery& q = *static_cast<ExtensionQuery*>(raw);
   const BoxEnds& partnerEnds = q.partners[partner];
   if (q.partnerIsolated) partner = q.isolatedPoints[partner];
+  if (q.partnerChanged && q.partnerChanged[partner] && (!q.lowerKeeps || partner < q.self)) return;
   Index first = q.selfFirst ? q.self : partner, second = q.selfFirst ? partner : q.self;
   if (q.kind == PairKind::EdgeEdge || q.kind == PairKind::VertexVertex) {
     if (first == second) return;
@@ -836,14 +842,22 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     bool queryIsIsolated;  // queries are points, of which only the isolated ones take part
     BvhTree tree;
     bool selfFirst;
+    // Which of the two queries that find a pair of changed primitives keeps it: none here (the
+    // other query leaves it), the partner's (a changed point is queried against the tree this
+    // search's primitives are in, with the same moving boxes), or the lower index's (both are of
+    // one list).
+    enum { kThisQuery, kPartnerQuery, kLowerIndex } keeper;
   };
   const std::array<Search, 6> searches = {{
-      {PairKind::VertexFace, &changedPoints, false, BvhTree::Triangles, true},
-      {PairKind::VertexFace, &changedTriangles, false, BvhTree::Points, false},
-      {PairKind::EdgeEdge, &changedEdges, false, BvhTree::Edges, true},
-      {PairKind::VertexEdge, &changedPoints, true, BvhTree::Edges, true},
-      {PairKind::VertexEdge, &changedEdges, false, BvhTree::IsolatedPoints, false},
-      {PairKind::VertexVertex, &changedPoints, true, BvhTree::IsolatedPoints, true},
+      {PairKind::VertexFace, &changedPoints, false, BvhTree::Triangles, true, Search::kThisQuery},
+      {PairKind::VertexFace, &changedTriangles, false, BvhTree::Points, false,
+       Search::kPartnerQuery},
+      {PairKind::EdgeEdge, &changedEdges, false, BvhTree::Edges, true, Search::kLowerIndex},
+      {PairKind::VertexEdge, &changedPoints, true, BvhTree::Edges, true, Search::kThisQuery},
+      {PairKind::VertexEdge, &changedEdges, false, BvhTree::IsolatedPoints, false,
+       Search::kPartnerQuery},
+      {PairKind::VertexVertex, &changedPoints, true, BvhTree::IsolatedPoints, true,
+       Search::kLowerIndex},
   }};
   for (auto& list : bvh.newPairs) list.clear();
   std::mutex overflowLock;
@@ -851,6 +865,11 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     if (bvh.builtCount(search.tree) == 0) continue;
     prepareThreadPairs(bvh.threadPairs);
     const std::vector<Index>& queries = *search.queries;
+    // The partners' list: edges in the edge tree, points in the others.
+    const std::uint8_t* partnerChanged =
+        search.keeper == Search::kThisQuery
+            ? nullptr
+            : bvh.changedPrimitive[search.tree == BvhTree::Edges ? 1 : 0].data();
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), 64),
                       [&](const tbb::blocked_range<std::size_t>& r) {
                         const auto tree = static_cast<std::size_t>(search.tree);
@@ -866,7 +885,9 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                                              search.tree == BvhTree::IsolatedPoints,
                                              {PrimitiveBox::empty(), PrimitiveBox::empty()},
                                              bvh.boxEnds[tree].data(),
-                                             since};
+                                             since,
+                                             partnerChanged,
+                                             search.keeper == Search::kLowerIndex};
                         for (std::size_t k = r.begin(); k != r.end(); ++k) {
                           const Index self = queries[k];
                           if (search.queries == &changedPoints && search.queryIsIsolated &&
