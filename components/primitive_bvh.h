@@ -128,6 +128,11 @@ class PrimitiveBvh {
   // built from scratch. A tree without boxes holds no Embree scene.
   bool commit();
 
+  // Calls visit(context, i) once for every primitive i of `tree` whose box overlaps `query`, in no
+  // particular order. Safe to call from many threads at once between two commits.
+  using Visitor = void (*)(void* context, Index primitive);
+  void forEachOverlap(BvhTree tree, const PrimitiveBox& query, Visitor visit, void* context) const;
+
   // Calls visit(context, a, b, count) with batches of the pairs (a[k], b[k]) of a primitive of
   // `treeA` and one of `treeB` whose boxes overlap: every such pair, in no particular order and
   // from many threads at once (Embree's dual-tree rtcCollide, which tests boxes four or eight at
@@ -140,10 +145,10 @@ class PrimitiveBvh {
 
   // The same for a list of query boxes against one tree: visit(context, k, j, count) for every
   // query box queries[k] that overlaps box j of `tree`, by one dual-tree traversal against a tree
-  // built over the queries for this call (rather than a point query per box, which Embree culls
-  // by the sphere around the box: loose for the long boxes of an incremental re-detection's held
-  // paths). Empty query boxes are bounded by the origin as the tree's are: the visitor rejects
-  // them. Call between two commits; `queries` must not change during the call.
+  // built over the queries for this call (a point query per box is culled by the sphere around
+  // the box, loose for the long boxes of an incremental re-detection's held paths). Empty query
+  // boxes are bounded by the origin as the tree's are: the visitor rejects them. Call between two
+  // commits; `queries` must not change during the call.
   void forEachOverlapOf(const std::vector<PrimitiveBox>& queries, BvhTree tree, PairVisitor visit,
                         void* context);
 

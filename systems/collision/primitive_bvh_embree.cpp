@@ -112,6 +112,24 @@ struct PrimitiveBvh::Embree {
 
 namespace {
 
+// What a point query's callback needs: the tree's boxes for the exact test, the query box, and
+// the caller's visitor.
+struct OverlapQuery {
+  const PrimitiveBox* boxes;
+  const PrimitiveBox* query;
+  PrimitiveBvh::Visitor visit;
+  void* context;
+};
+
+// Embree calls this for every primitive in the leaves the query sphere reaches, with no test of
+// the primitive's own bounds (user geometry), so the exact box test is ours. The radius is never
+// shrunk: returning false tells Embree the query is unchanged.
+bool onCandidate(RTCPointQueryFunctionArguments* args) {
+  const auto& q = *static_cast<const OverlapQuery*>(args->userPtr);
+  if (overlaps(q.boxes[args->primID], *q.query)) q.visit(q.context, args->primID);
+  return false;
+}
+
 // What a collide callback needs: the caller's visitor.
 struct CollideQuery {
   PrimitiveBvh::PairVisitor visit;
@@ -166,6 +184,36 @@ bool PrimitiveBvh::commit() {
     }
   }
   return rebuilt;
+}
+
+void PrimitiveBvh::forEachOverlap(BvhTree tree, const PrimitiveBox& query, Visitor visit,
+                                  void* context) const {
+  const std::size_t t = static_cast<std::size_t>(tree);
+  if (!embree_ || !embree_->scene[t] || query.isEmpty()) return;
+  // Embree's point query culls nodes by a sphere, so the query is the sphere around the box:
+  // centre and radius in double, then the radius widened by a relative and an absolute slack
+  // that cover the float rounding of the centre and of Embree's own node distance tests. Being
+  // larger than needed costs only callbacks that the exact test rejects.
+  double center[3];
+  double radius2 = 0;
+  double largest = 0;
+  for (int k = 0; k < 3; ++k) {
+    center[k] = 0.5 * (double(query.lower[k]) + double(query.upper[k]));
+    const double half = 0.5 * (double(query.upper[k]) - double(query.lower[k]));
+    radius2 += half * half;
+    largest =
+        std::max({largest, std::abs(double(query.lower[k])), std::abs(double(query.upper[k]))});
+  }
+  RTCPointQuery point;
+  point.x = float(center[0]);
+  point.y = float(center[1]);
+  point.z = float(center[2]);
+  point.radius = float(std::sqrt(radius2) * (1 + 1e-5) + largest * 1e-6);
+  point.time = 0;
+  RTCPointQueryContext pointContext;
+  rtcInitPointQueryContext(&pointContext);
+  OverlapQuery overlap{boxes[t].data(), &query, visit, context};
+  rtcPointQuery(embree_->scene[t], &point, &pointContext, &onCandidate, &overlap);
 }
 
 void PrimitiveBvh::forEachOverlappingPair(BvhTree treeA, BvhTree treeB, PairVisitor visit,
