@@ -143,15 +143,6 @@ class PrimitiveBvh {
   using PairVisitor = void (*)(void* context, const Index* a, const Index* b, std::size_t count);
   void forEachOverlappingPair(BvhTree treeA, BvhTree treeB, PairVisitor visit, void* context) const;
 
-  // The same for a list of query boxes against one tree: visit(context, k, j, count) for every
-  // query box queries[k] that overlaps box j of `tree`, by one dual-tree traversal against a tree
-  // built over the queries for this call (a point query per box is culled by the sphere around
-  // the box, loose for the long boxes of an incremental re-detection's held paths). Empty query
-  // boxes are bounded by the origin as the tree's are: the visitor rejects them. Call between two
-  // commits; `queries` must not change during the call.
-  void forEachOverlapOf(const std::vector<PrimitiveBox>& queries, BvhTree tree, PairVisitor visit,
-                        void* context);
-
   std::size_t builtCount(BvhTree tree) const { return builtCount_[static_cast<std::size_t>(tree)]; }
   // Trees built from scratch and trees refit, over the component's lifetime.
   std::size_t builds() const { return builds_; }
@@ -178,10 +169,6 @@ class PrimitiveBvh {
   // Per chunk of the old pairs: its first new pair in the merge, and how many pairs the merge
   // keeps before it.
   std::vector<std::size_t> chunkNewPairs;
-  // One search's queries: their primitives, swept boxes and moving boxes.
-  std::vector<Index> querySelf;
-  std::vector<PrimitiveBox> queryBoxes;
-  std::vector<BoxEnds> queryEnds;
   std::vector<std::size_t> keptBefore;
   std::vector<PairKind> mergedKind;
   std::vector<Index> mergedFirst;

@@ -6,7 +6,6 @@
 #include <array>
 #include <cmath>
 #include <limits>
-#include <mutex>
 #include <random>
 #include <set>
 #include <tuple>
@@ -686,57 +685,6 @@ TEST(BroadPhase, ClothCarriedAsAWholeHasThePairsOfTheClothAtRest) {
   EXPECT_GT(rest.size(), 1000u);
   // Float rounding of the moved coordinates may add or drop a pair at the very edge of reach.
   EXPECT_NEAR(double(carried.size()), double(rest.size()), 0.005 * double(rest.size()));
-}
-
-// A list of query boxes against a tree by one dual-tree traversal reports every overlapping pair
-// (query, tree box), each once, as the all-pairs test does: random boxes of very different
-// sizes (long held boxes among small ones), and empty ones on both sides, which the visitor
-// rejects as the broad phase's does.
-TEST(BroadPhase, QueryListAgainstATreeReportsEveryOverlapOnce) {
-  std::mt19937 random(11);
-  std::uniform_real_distribution<float> place(-0.2f, 0.2f), size(0.0f, 0.05f), stretch(0.0f, 1.0f);
-  const auto box = [&](float longest) {
-    PrimitiveBox b;
-    for (int k = 0; k < 3; ++k) {
-      b.lower[k] = place(random);
-      b.upper[k] = b.lower[k] + (k == 0 ? longest * stretch(random) : size(random));
-    }
-    return b;
-  };
-  PrimitiveBvh bvh;
-  std::vector<PrimitiveBox>& tree = bvh.boxes[static_cast<std::size_t>(BvhTree::Edges)];
-  for (int i = 0; i < 3000; ++i) tree.push_back(i % 500 == 0 ? PrimitiveBox::empty() : box(0.05f));
-  bvh.commit();
-  std::vector<PrimitiveBox> queries;
-  for (int i = 0; i < 400; ++i)
-    queries.push_back(i % 50 == 0 ? PrimitiveBox::empty() : box(i % 3 == 0 ? 0.8f : 0.05f));
-
-  struct Found {
-    const std::vector<PrimitiveBox>* queries;
-    const std::vector<PrimitiveBox>* tree;
-    std::mutex lock;
-    std::vector<std::pair<Index, Index>> pairs;
-  } found{&queries, &tree, {}, {}};
-  tbb::task_arena arena(2);
-  arena.execute([&] {
-    bvh.forEachOverlapOf(
-        queries, BvhTree::Edges,
-        [](void* raw, const Index* a, const Index* b, std::size_t count) {
-          auto& f = *static_cast<Found*>(raw);
-          const std::lock_guard<std::mutex> hold(f.lock);
-          for (std::size_t k = 0; k < count; ++k)
-            if (overlaps((*f.queries)[a[k]], (*f.tree)[b[k]])) f.pairs.emplace_back(a[k], b[k]);
-        },
-        &found);
-  });
-  std::sort(found.pairs.begin(), found.pairs.end());
-  EXPECT_EQ(std::adjacent_find(found.pairs.begin(), found.pairs.end()), found.pairs.end());
-  std::vector<std::pair<Index, Index>> expected;
-  for (Index q = 0; q < queries.size(); ++q)
-    for (Index j = 0; j < tree.size(); ++j)
-      if (overlaps(queries[q], tree[j])) expected.emplace_back(q, j);
-  ASSERT_GT(expected.size(), 1000u);  // enough overlaps to mean something
-  EXPECT_EQ(found.pairs, expected);
 }
 
 }  // namespace

@@ -679,20 +679,22 @@ Vec3 clampIntoBounds(const CandidatePairs& pairs, std::size_t i, const Vec3& p) 
 
 namespace {
 
-// The queries of one search of the incremental re-detection: changed primitives (`self`, with
-// their moving boxes) against a tree; each pair (query, partner) the traversal reports is a pair
-// (first, second) of `kind`, kept if admissible and if the moving boxes meet over the part ahead.
-struct ExtensionSearch {
+// One query of the incremental re-detection: a changed primitive (`self`) against a tree, each
+// partner the tree reports made a pair (first, second) of `kind` and kept if admissible.
+struct ExtensionQuery {
   const CollisionPrimitives* primitives;
   const Real* w;
   const Index* isolatedPoints;
   ThreadPairs found;
+  std::array<std::uint64_t, 256> kept;  // pairs kept, appended to `found` when full and at the end
+  std::size_t keptCount;
   PairKind kind;
-  const Index* self;        // per query: its primitive
-  const BoxEnds* selfEnds;  // per query: its moving box
-  bool selfFirst;           // the query primitive is the pair's first
-  bool partnerIsolated;     // the tree is IsolatedPoints: its primitives map to points
-  const BoxEnds* partners;  // the tree's moving boxes, by tree primitive
+  Index self;
+  bool selfFirst;        // the query primitive is the pair's first
+  bool partnerIsolated;  // the tree is IsolatedPoints: its primitives map to points
+  // The query primitive's moving box, and the tree's by tree primitive.
+  BoxEnds selfEnds;
+  const BoxEnds* partners;
   double since;  // the part of the window the pairs are for: from the extension's start on
   // A pair of two changed primitives is found by the queries of both: one of them keeps it. Per
   // partner primitive (after the isolated points' mapping): whether it is changed; `lowerKeeps`:
@@ -701,50 +703,20 @@ struct ExtensionSearch {
   bool lowerKeeps;
 };
 
-void keepExtension(void* raw, const Index* queries, const Index* partners, std::size_t count) {
-  const ExtensionSearch& q = *static_cast<const ExtensionSearch*>(raw);
-  constexpr std::size_t kBatch = 256;
-  std::uint64_t kept[kBatch];
-  std::size_t keptCount = 0;
-  for (std::size_t k = 0; k < count; ++k) {
-    const Index self = q.self[queries[k]];
-    Index partner = partners[k];
-    const BoxEnds& partnerEnds = q.partners[partner];
-    if (q.partnerIsolated) partner = q.isolatedPoints[partner];
-    if (q.partnerChanged && q.partnerChanged[partner] && (!q.lowerKeeps || partner < self))
-      continue;
-    Index first = q.selfFirst ? self : partner, second = q.selfFirst ? partner : self;
-    if (q.kind == PairKind::EdgeEdge || q.kind == PairKind::VertexVertex) {
-      if (first == second) continue;
-      if (first > second) std::swap(first, second);
-    }
-    if (!admissible(*q.primitives, q.w, q.kind, first, second)) continue;
-    if (!meetInMotion(q.selfEnds[queries[k]], partnerEnds, q.since)) continue;
-    kept[keptCount++] = std::uint64_t{first} << 32 | second;
-    if (keptCount == kBatch) q.found.append(kept, keptCount), keptCount = 0;
+void keepExtension(void* raw, Index partner) {
+  ExtensionQuery& q = *static_cast<ExtensionQuery*>(raw);
+  const BoxEnds& partnerEnds = q.partners[partner];
+  if (q.partnerIsolated) partner = q.isolatedPoints[partner];
+  if (q.partnerChanged && q.partnerChanged[partner] && (!q.lowerKeeps || partner < q.self)) return;
+  Index first = q.selfFirst ? q.self : partner, second = q.selfFirst ? partner : q.self;
+  if (q.kind == PairKind::EdgeEdge || q.kind == PairKind::VertexVertex) {
+    if (first == second) return;
+    if (first > second) std::swap(first, second);
   }
-  q.found.append(kept, keptCount);
-}
-
-// A search with fewer queries than this asks the tree once per query box (a point query each)
-// rather than building a tree over the queries for one traversal, whose build costs more than a
-// few hundred queries do (bullet_cloth's, rope_pile's and kinematic_spin's re-detections,
-// 11–24% of their step when every search built one).
-constexpr std::size_t kTraversalQueries = 512;
-
-// A point query's partners, gathered a batch at a time for keepExtension.
-struct PointQuery {
-  ExtensionSearch* search;
-  Index query = 0;
-  std::size_t count = 0;
-  Index queries[256], partners[256];
-};
-
-void gatherPartner(void* raw, Index partner) {
-  PointQuery& q = *static_cast<PointQuery*>(raw);
-  q.queries[q.count] = q.query, q.partners[q.count] = partner;
-  if (++q.count == std::size(q.partners))
-    keepExtension(q.search, q.queries, q.partners, q.count), q.count = 0;
+  if (!admissible(*q.primitives, q.w, q.kind, first, second)) return;
+  if (!meetInMotion(q.selfEnds, partnerEnds, q.since)) return;
+  q.kept[q.keptCount++] = std::uint64_t{first} << 32 | second;
+  if (q.keptCount == q.kept.size()) q.found.append(q.kept.data(), q.keptCount), q.keptCount = 0;
 }
 
 }  // namespace
@@ -769,7 +741,6 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   for (std::size_t tree = 0; tree < kBvhTreeCount; ++tree)
     if (bvh.boxEnds[tree].size() != bvh.boxes[tree].size()) return false;
 
-  const auto dbgT0 = std::chrono::steady_clock::now();
   std::vector<std::uint8_t>& grown = bvh.grownParticle;
   grown.assign(n, 0);
   std::size_t outside = 0;
@@ -899,55 +870,46 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
         search.keeper == Search::kThisQuery
             ? nullptr
             : bvh.changedPrimitive[search.tree == BvhTree::Edges ? 1 : 0].data();
-    const int list = search.queries == &changedEdges       ? 1
-                     : search.queries == &changedTriangles ? 2
-                                                           : 0;
-    bvh.querySelf.clear(), bvh.queryBoxes.clear(), bvh.queryEnds.clear();
-    for (const Index self : queries) {
-      if (list == 0 && search.queryIsIsolated && !primitives.pointIsolated[self]) continue;
-      const MovingBox box = movingBoxOfPrimitive(list, self);
-      bvh.querySelf.push_back(self);
-      bvh.queryBoxes.push_back(box.swept);
-      bvh.queryEnds.push_back({box.start, box.end});
-    }
-    ExtensionSearch context{&primitives,
-                            w.data(),
-                            bvh.isolatedPoints.data(),
-                            ThreadPairs{&bvh.threadPairs, &overflowLock},
-                            search.kind,
-                            bvh.querySelf.data(),
-                            bvh.queryEnds.data(),
-                            search.selfFirst,
-                            search.tree == BvhTree::IsolatedPoints,
-                            bvh.boxEnds[static_cast<std::size_t>(search.tree)].data(),
-                            since,
-                            partnerChanged,
-                            search.keeper == Search::kLowerIndex};
-    if (bvh.queryBoxes.size() >= kTraversalQueries) {
-      bvh.forEachOverlapOf(bvh.queryBoxes, search.tree, &keepExtension, &context);
-    } else {
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, bvh.queryBoxes.size(), 64),
-                        [&](const tbb::blocked_range<std::size_t>& r) {
-                          PointQuery query{&context, 0, 0, {}, {}};
-                          for (std::size_t k = r.begin(); k != r.end(); ++k) {
-                            query.query = static_cast<Index>(k);
-                            bvh.forEachOverlap(search.tree, bvh.queryBoxes[k], &gatherPartner,
-                                               &query);
-                          }
-                          keepExtension(&context, query.queries, query.partners, query.count);
-                        });
-    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), 64),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        const auto tree = static_cast<std::size_t>(search.tree);
+                        ExtensionQuery query{&primitives,
+                                             w.data(),
+                                             bvh.isolatedPoints.data(),
+                                             ThreadPairs{&bvh.threadPairs, &overflowLock},
+                                             {},
+                                             0,
+                                             search.kind,
+                                             0,
+                                             search.selfFirst,
+                                             search.tree == BvhTree::IsolatedPoints,
+                                             {PrimitiveBox::empty(), PrimitiveBox::empty()},
+                                             bvh.boxEnds[tree].data(),
+                                             since,
+                                             partnerChanged,
+                                             search.keeper == Search::kLowerIndex};
+                        for (std::size_t k = r.begin(); k != r.end(); ++k) {
+                          const Index self = queries[k];
+                          if (search.queries == &changedPoints && search.queryIsIsolated &&
+                              !primitives.pointIsolated[self])
+                            continue;
+                          const MovingBox box =
+                              movingBoxOfPrimitive(search.queries == &changedEdges       ? 1
+                                                   : search.queries == &changedTriangles ? 2
+                                                                                         : 0,
+                                                   self);
+                          query.self = self;
+                          query.selfEnds = {box.start, box.end};
+                          bvh.forEachOverlap(search.tree, box.swept, &keepExtension, &query);
+                        }
+                        query.found.append(query.kept.data(), query.keptCount);
+                      });
     std::vector<std::uint64_t>& kindPairs = bvh.newPairs[static_cast<std::size_t>(search.kind)];
     for (const std::vector<std::uint64_t>& found : bvh.threadPairs)
       kindPairs.insert(kindPairs.end(), found.begin(), found.end());
   }
-  if (getenv("NUCLEON_DEBUG_Q"))
-    fprintf(
-        stderr, "ext query %.1f ms outside %zu\n",
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - dbgT0).count(),
-        outside);
   for (auto& list : bvh.newPairs) {
-    // Keys are unique after the erase, so the order does not depend on the threads.
+    // Integer keys: one sorted order, whatever the threads found them in.
     tbb::parallel_sort(list.begin(), list.end());
     list.erase(std::unique(list.begin(), list.end()), list.end());
   }

@@ -128,16 +128,14 @@ void growParticleBounds(CandidatePairs& pairs, Real slack);
 // `position` (or `start`) is outside its bounds gets a held path over the box of its motion from
 // `start` through `end` on to the window's end (CandidatePairs::pathReach); the primitives with
 // such a particle get their moving boxes again, the trees are refit, those primitives are
-// queried over the rest of the window (by one dual-tree traversal of a tree over their boxes
-// against each tree; a pair of two such primitives is kept by one of the two queries that find
-// it), their new pairs are merged into the set in order (both lists are
+// queried over the rest of the window (a pair of two such primitives is kept by one of the two
+// queries that find it), their new pairs are merged into the set in order (both lists are
 // sorted: one pass per chunk of the set) and their pairs whose boxes no longer meet are dropped.
-// The set is then the one findCandidatePairs
-// would give over the paths and held boxes, and CandidatePairs::formerIndex says where each pair
-// was before. Returns false, changing nothing, when more than 1/kExtendShare of the particles left
-// their bounds, or the trees were not built for the current primitives: a full findCandidatePairs
-// is then cheaper. `offsets` are the frame's offsets at the instants of `position`, `start` and
-// `end`.
+// The set is then the one findCandidatePairs would give over the paths and held boxes, and
+// CandidatePairs::formerIndex says where each pair was before. Returns false, changing nothing,
+// when more than 1/kExtendShare of the particles left their bounds, or the trees were not built for
+// the current primitives: a full findCandidatePairs is then cheaper. `offsets` are the frame's
+// offsets at the instants of `position`, `start` and `end`.
 constexpr std::size_t kExtendShare = 8;
 struct FrameOffsets {
   Vec3 position = Vec3::Zero();

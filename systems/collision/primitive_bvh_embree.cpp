@@ -86,21 +86,6 @@ struct PrimitiveBvh::Embree {
     rtcCommitScene(scene[t]);
   }
 
-  // A scene over `boxes` for one traversal (the caller releases it): built at medium quality,
-  // since it is traversed once.
-  RTCScene buildOnce(const std::vector<PrimitiveBox>& boxes) {
-    RTCScene once = rtcNewScene(device);
-    RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
-    rtcSetGeometryUserPrimitiveCount(geometry, static_cast<unsigned>(boxes.size()));
-    rtcSetGeometryBoundsFunction(geometry, &Embree::bounds, nullptr);
-    rtcSetGeometryUserData(geometry, const_cast<PrimitiveBox*>(boxes.data()));
-    rtcCommitGeometry(geometry);
-    rtcAttachGeometryByID(once, geometry, 0);
-    rtcReleaseGeometry(geometry);  // the scene holds it
-    rtcCommitScene(once);
-    return once;
-  }
-
   void refit(std::size_t t, const std::vector<PrimitiveBox>& boxes) {
     // Committing the geometry again marks it modified; the scene commit then refits its tree in
     // place, asking the bounds callback for every box, and rebuilds only the top level.
@@ -222,16 +207,6 @@ void PrimitiveBvh::forEachOverlappingPair(BvhTree treeA, BvhTree treeB, PairVisi
   if (!embree_ || !embree_->scene[a] || !embree_->scene[b]) return;
   CollideQuery query{visit, context, a == b};
   rtcCollide(embree_->scene[a], embree_->scene[b], &onCollisions, &query);
-}
-
-void PrimitiveBvh::forEachOverlapOf(const std::vector<PrimitiveBox>& queries, BvhTree tree,
-                                    PairVisitor visit, void* context) {
-  const std::size_t t = static_cast<std::size_t>(tree);
-  if (queries.empty() || !embree_ || !embree_->scene[t]) return;
-  RTCScene once = embree_->buildOnce(queries);
-  CollideQuery query{visit, context, false};
-  rtcCollide(once, embree_->scene[t], &onCollisions, &query);
-  rtcReleaseScene(once);
 }
 
 std::size_t PrimitiveBvh::embreeErrors() const {
