@@ -139,7 +139,8 @@ TEST_P(SceneDeterminism, SameStateForOneAndTwoThreads) {
     particles += o.def.vertices.size();
     selfColliding |= o.def.material.selfCollision;
   }
-  const int steps = particles > 5000 || selfColliding ? 4 : 30;
+  // The largest (cloth_hang_388, 150 k particles) builds its tables eight times: one step.
+  const int steps = particles > 100000 ? 1 : particles > 5000 || selfColliding ? 4 : 30;
   for (SolverKind kind : {SolverKind::GaussSeidel, SolverKind::Jacobi,
                           SolverKind::ColoredGaussSeidel, SolverKind::Multigrid}) {
     scene.solver.kind = kind;

@@ -26,6 +26,7 @@
 #include "systems/solver/colored_sweep.h"
 #include "systems/solver/constraint_kernels.h"
 #include "systems/solver/distance_batch.h"
+#include "systems/solver/hinge_batch.h"
 #include "systems/solver/jacobi_chebyshev.h"
 #include "systems/solver/jacobi_gather.h"
 #include "systems/solver/jacobi_vertex.h"
@@ -55,7 +56,7 @@ struct SweepContext {
 struct UserKernel {};
 
 // Paths a direct caller of a sweep gets: every optimised path that applies to the kernel.
-constexpr unsigned kApplicablePaths = kDistanceBatch | kVertexJacobi;
+constexpr unsigned kApplicablePaths = kDistanceBatch | kVertexJacobi | kHingeBatch;
 
 namespace sweep_detail {
 constexpr std::size_t kGrain = 512;
@@ -283,13 +284,36 @@ void solveJacobi(Pool& pool, const SweepContext& context, JacobiPath path = Jaco
     batch.step = factors.step;
     batch.carry = factors.carry;
   }
+  HingeJacobiBatch hinges;
+  if constexpr ((Paths & kHingeBatch) && std::is_same_v<Kernel, DihedralKernel>) {
+    // Undamped hinges: eight at a time (hinge_batch.h), likewise.
+    static_assert(kHingeBatchSize == kDistanceBatchSize, "one block size for both batches");
+    batched =
+        !context.objectRuns && context.optimizedPaths && pool.undamped && hingeBatchesAvailable();
+    hinges.particles = pool.particles.data();
+    hinges.rest = pool.rest.data();
+    hinges.compliance = pool.compliance.data();
+    hinges.compressionCompliance = pool.compressionCompliance.data();
+    hinges.lambda = pool.lambda.data();
+    hinges.positions = context.particles.p.data();
+    hinges.splitInverseMass = pool.splitInverseMass.data();
+    hinges.correction = pool.correction.data();
+    hinges.inverseH2 = invH * invH;
+    hinges.relaxation = factors.relaxation;
+    hinges.step = factors.step;
+    hinges.carry = factors.carry;
+  }
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, blocks, sweep_detail::kGrain / kDistanceBatchSize),
       [&](const tbb::blocked_range<std::size_t>& r) {
         const std::size_t end = std::min(pool.size(), r.end() * kDistanceBatchSize);
         std::size_t c = r.begin() * kDistanceBatchSize;
-        if (batched)
+        if constexpr (std::is_same_v<Kernel, DihedralKernel>) {
+          if (batched)
+            c = projectHingeJacobiBatches(hinges, static_cast<Index>(c), static_cast<Index>(end));
+        } else if (batched) {
           c = projectDistanceJacobiBatches(batch, static_cast<Index>(c), static_cast<Index>(end));
+        }
         for (; c < end; ++c) sweep_detail::jacobiOne<Kernel>(pool, c, context, factors, invH);
       });
   gatherJacobiCorrections(pool.incidence, pool.correction, context.particles, Real(1));
@@ -321,6 +345,28 @@ void solveColored(Pool& pool, const SweepContext& context) {
           pool.coloring, sweep_detail::kGrain, kDistanceBatchSize,
           [&](Index begin, Index end) {
             for (Index c = projectDistanceBatches(batch, begin, end); c < end; ++c) projectOne(c);
+          },
+          projectOne);
+      return;
+    }
+  }
+  if constexpr ((Paths & kHingeBatch) && std::is_same_v<Kernel, DihedralKernel>) {
+    // Undamped hinges stored in color order: eight at a time (hinge_batch.h).
+    if (!context.objectRuns && context.optimizedPaths && pool.undamped && pool.coloring.inPlace &&
+        hingeBatchesAvailable()) {
+      HingeBatch batch;
+      batch.particles = pool.particles.data();
+      batch.rest = pool.rest.data();
+      batch.compliance = pool.compliance.data();
+      batch.compressionCompliance = pool.compressionCompliance.data();
+      batch.lambda = pool.lambda.data();
+      batch.positions = context.particles.p.data();
+      batch.endInverseMass = pool.endInverseMass.data();
+      batch.inverseH2 = invH * invH;
+      forEachColorRange(
+          pool.coloring, sweep_detail::kGrain, kHingeBatchSize,
+          [&](Index begin, Index end) {
+            for (Index c = projectHingeBatches(batch, begin, end); c < end; ++c) projectOne(c);
           },
           projectOne);
       return;
