@@ -22,8 +22,8 @@
 // - Kernel: the kernel that evaluates C and ∇C (systems/solver/constraint_kernels.h);
 // - paths: the sweep paths the pool takes besides the generic sweep of each backend
 //   (SweepPath in systems/solver/sweep_paths.h): kDistanceBatch (AVX2 batches of eight distance
-//   constraints in colored Gauss–Seidel and Jacobi), kHingeBatch (the same for dihedral
-//   hinges), kVertexJacobi (the vertex-centric Jacobi
+//   constraints in colored Gauss–Seidel and Jacobi), kAngularBatch (the same for dihedral
+//   hinges and angles), kVertexJacobi (the vertex-centric Jacobi
 //   sweep of hard distance constraints), kTetherLayers (the tethers' own sweep by vertex), or
 //   kGenericSweep alone.
 // A family may own several pools: bend is the dihedral angle of cloth hinges and the angle
@@ -31,11 +31,11 @@
 #define NUCLEON_CONSTRAINT_FAMILIES(X)                                                            \
   X(Stretch, "stretch", NUCLEON_POOL(stretch, 2, DistanceKernel, kDistanceBatch | kVertexJacobi)) \
   X(Tether, "tether", NUCLEON_POOL(tether, 2, TetherKernel, kTetherLayers))                       \
-  X(Shear, "shear", NUCLEON_POOL(shear, 3, AngleKernel, kGenericSweep))                           \
+  X(Shear, "shear", NUCLEON_POOL(shear, 3, AngleKernel, kAngularBatch))                           \
   X(Bend, "bend",                                                                                 \
-    NUCLEON_POOL(bend, 4, DihedralKernel, kHingeBatch)                                            \
-        NUCLEON_POOL(curveBend, 3, AngleKernel, kGenericSweep))                                   \
-  X(Twist, "twist", NUCLEON_POOL(twist, 4, DihedralKernel, kHingeBatch))                          \
+    NUCLEON_POOL(bend, 4, DihedralKernel, kAngularBatch)                                          \
+        NUCLEON_POOL(curveBend, 3, AngleKernel, kAngularBatch))                                   \
+  X(Twist, "twist", NUCLEON_POOL(twist, 4, DihedralKernel, kAngularBatch))                        \
   X(Volume, "volume", NUCLEON_POOL(volume, 4, VolumeKernel, kGenericSweep))
 
 namespace nucleon {

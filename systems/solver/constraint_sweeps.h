@@ -23,10 +23,10 @@
 #include "components/particles.h"
 #include "components/user_constraint_pool.h"
 #include "nucleon/solver_settings.h"
+#include "systems/solver/angular_batch.h"
 #include "systems/solver/colored_sweep.h"
 #include "systems/solver/constraint_kernels.h"
 #include "systems/solver/distance_batch.h"
-#include "systems/solver/hinge_batch.h"
 #include "systems/solver/jacobi_chebyshev.h"
 #include "systems/solver/jacobi_gather.h"
 #include "systems/solver/jacobi_vertex.h"
@@ -56,7 +56,7 @@ struct SweepContext {
 struct UserKernel {};
 
 // Paths a direct caller of a sweep gets: every optimised path that applies to the kernel.
-constexpr unsigned kApplicablePaths = kDistanceBatch | kVertexJacobi | kHingeBatch;
+constexpr unsigned kApplicablePaths = kDistanceBatch | kVertexJacobi | kAngularBatch;
 
 namespace sweep_detail {
 constexpr std::size_t kGrain = 512;
@@ -228,6 +228,28 @@ NUCLEON_KERNEL void jacobiOne(Pool& pool, std::size_t c, const SweepContext& con
 }
 }  // namespace sweep_detail
 
+namespace sweep_detail {
+// The kernels with an AVX2 angular batch (angular_batch.h), and the batch functions of each.
+template <class Kernel>
+constexpr bool kAngularKernel =
+    std::is_same_v<Kernel, DihedralKernel> || std::is_same_v<Kernel, AngleKernel>;
+
+inline Index projectAngularJacobiBatches(const AngularJacobiBatch<4>& batch, Index begin,
+                                         Index end) {
+  return projectHingeJacobiBatches(batch, begin, end);
+}
+inline Index projectAngularJacobiBatches(const AngularJacobiBatch<3>& batch, Index begin,
+                                         Index end) {
+  return projectAngleJacobiBatches(batch, begin, end);
+}
+inline Index projectAngularBatches(const AngularBatch<4>& batch, Index begin, Index end) {
+  return projectHingeBatches(batch, begin, end);
+}
+inline Index projectAngularBatches(const AngularBatch<3>& batch, Index begin, Index end) {
+  return projectAngleBatches(batch, begin, end);
+}
+}  // namespace sweep_detail
+
 // Which form of the Jacobi sweep runs: the vertex-centric one wherever it applies (Automatic), or
 // the slot path always (Slots; the reference the tests compare the vertex path with).
 enum class JacobiPath { Automatic, Slots };
@@ -284,33 +306,36 @@ void solveJacobi(Pool& pool, const SweepContext& context, JacobiPath path = Jaco
     batch.step = factors.step;
     batch.carry = factors.carry;
   }
-  HingeJacobiBatch hinges;
-  if constexpr ((Paths & kHingeBatch) && std::is_same_v<Kernel, DihedralKernel>) {
-    // Undamped hinges: eight at a time (hinge_batch.h), likewise.
-    static_assert(kHingeBatchSize == kDistanceBatchSize, "one block size for both batches");
+  // The angular batch's parameters, of the pool's arity where one applies (a distance pool's
+  // unused copy has arity 2 and is never read).
+  AngularJacobiBatch<sweep_detail::kMaxArity<Kernel>> angular;
+  if constexpr ((Paths & kAngularBatch) && sweep_detail::kAngularKernel<Kernel>) {
+    // Undamped angular constraints: eight at a time (angular_batch.h), likewise.
+    static_assert(kAngularBatchSize == kDistanceBatchSize, "one block size for both batches");
     batched =
-        !context.objectRuns && context.optimizedPaths && pool.undamped && hingeBatchesAvailable();
-    hinges.particles = pool.particles.data();
-    hinges.rest = pool.rest.data();
-    hinges.compliance = pool.compliance.data();
-    hinges.compressionCompliance = pool.compressionCompliance.data();
-    hinges.lambda = pool.lambda.data();
-    hinges.positions = context.particles.p.data();
-    hinges.splitInverseMass = pool.splitInverseMass.data();
-    hinges.correction = pool.correction.data();
-    hinges.inverseH2 = invH * invH;
-    hinges.relaxation = factors.relaxation;
-    hinges.step = factors.step;
-    hinges.carry = factors.carry;
+        !context.objectRuns && context.optimizedPaths && pool.undamped && angularBatchesAvailable();
+    angular.particles = pool.particles.data();
+    angular.rest = pool.rest.data();
+    angular.compliance = pool.compliance.data();
+    angular.compressionCompliance = pool.compressionCompliance.data();
+    angular.lambda = pool.lambda.data();
+    angular.positions = context.particles.p.data();
+    angular.splitInverseMass = pool.splitInverseMass.data();
+    angular.correction = pool.correction.data();
+    angular.inverseH2 = invH * invH;
+    angular.relaxation = factors.relaxation;
+    angular.step = factors.step;
+    angular.carry = factors.carry;
   }
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, blocks, sweep_detail::kGrain / kDistanceBatchSize),
       [&](const tbb::blocked_range<std::size_t>& r) {
         const std::size_t end = std::min(pool.size(), r.end() * kDistanceBatchSize);
         std::size_t c = r.begin() * kDistanceBatchSize;
-        if constexpr (std::is_same_v<Kernel, DihedralKernel>) {
+        if constexpr (sweep_detail::kAngularKernel<Kernel>) {
           if (batched)
-            c = projectHingeJacobiBatches(hinges, static_cast<Index>(c), static_cast<Index>(end));
+            c = sweep_detail::projectAngularJacobiBatches(angular, static_cast<Index>(c),
+                                                          static_cast<Index>(end));
         } else if (batched) {
           c = projectDistanceJacobiBatches(batch, static_cast<Index>(c), static_cast<Index>(end));
         }
@@ -350,11 +375,11 @@ void solveColored(Pool& pool, const SweepContext& context) {
       return;
     }
   }
-  if constexpr ((Paths & kHingeBatch) && std::is_same_v<Kernel, DihedralKernel>) {
-    // Undamped hinges stored in color order: eight at a time (hinge_batch.h).
+  if constexpr ((Paths & kAngularBatch) && sweep_detail::kAngularKernel<Kernel>) {
+    // Undamped angular constraints stored in color order: eight at a time (angular_batch.h).
     if (!context.objectRuns && context.optimizedPaths && pool.undamped && pool.coloring.inPlace &&
-        hingeBatchesAvailable()) {
-      HingeBatch batch;
+        angularBatchesAvailable()) {
+      AngularBatch<Kernel::kArity> batch;
       batch.particles = pool.particles.data();
       batch.rest = pool.rest.data();
       batch.compliance = pool.compliance.data();
@@ -364,9 +389,10 @@ void solveColored(Pool& pool, const SweepContext& context) {
       batch.endInverseMass = pool.endInverseMass.data();
       batch.inverseH2 = invH * invH;
       forEachColorRange(
-          pool.coloring, sweep_detail::kGrain, kHingeBatchSize,
+          pool.coloring, sweep_detail::kGrain, kAngularBatchSize,
           [&](Index begin, Index end) {
-            for (Index c = projectHingeBatches(batch, begin, end); c < end; ++c) projectOne(c);
+            for (Index c = sweep_detail::projectAngularBatches(batch, begin, end); c < end; ++c)
+              projectOne(c);
           },
           projectOne);
       return;

@@ -17,9 +17,9 @@ enum SweepPath : unsigned {
   kVertexJacobi = 1u << 1,
   // The tethers' own sweep by vertex, in layers (tether_sweep.h), in every backend.
   kTetherLayers = 1u << 2,
-  // Dihedral hinges eight at a time with AVX2 (hinge_batch.h), in colored Gauss–Seidel and in
-  // Jacobi's slot path, for pools without damping.
-  kHingeBatch = 1u << 3,
+  // Angular constraints (dihedral hinges, angles) eight at a time with AVX2 (angular_batch.h), in
+  // colored Gauss–Seidel and in Jacobi's slot path, for pools without damping.
+  kAngularBatch = 1u << 3,
 };
 
 }  // namespace nucleon

@@ -1,0 +1,74 @@
+// Angular constraints projected eight at a time with AVX2 and FMA, like the distance batches
+// (distance_batch.h): the dihedral hinges of cloth bend and curve twist (DihedralKernel) and the
+// angles of curve bend and cloth shear (AngleKernel). Per lane, the kernel of constraint_kernels.h
+//   hinge:  e = x1 − x0,  n1 = e × (x2 − x0),  n2 = (x3 − x0) × e,
+//           φ = atan2((n1 × n2) · ê, n1 · n2),  ∇_x2 φ = −‖e‖ n1/‖n1‖²,  ∇_x3 φ = −‖e‖ n2/‖n2‖²,
+//           ∇_x0 φ = −(1 − s2) ∇_x2 φ − (1 − s3) ∇_x3 φ,  ∇_x1 φ = −s2 ∇_x2 φ − s3 ∇_x3 φ,
+//           s_k = (x_k − x0)·e/‖e‖²;
+//   angle:  θ = atan2(‖û × v̂‖, û · v̂),  u = x0 − x2,  v = x1 − x2,
+//           ∇_x0 θ = −t_u/‖u‖,  ∇_x1 θ = −t_v/‖v‖,  ∇_x2 θ = −∇_x0 θ − ∇_x1 θ,
+// then the undamped XPBD step (Macklin et al. 2016, eq. 18)
+//   C = wrap(θ − θ0),  Δλ = (−C − α̃λ) / (Σ_k w_k ‖∇_k θ‖² + α̃),  Δx_k = w_k Δλ ∇_k θ,
+// C wrapped to (−π, π] and α̃ the compliance over h² by the sign of C. The arctangent is a
+// polynomial (the octant reduction and minimax odd polynomial of Cephes' atanf, relative error
+// about 2e-7 on [0, 1]), not a call of the math library per constraint: the scalar kernels' atan2
+// was most of their time. Degenerate constraints (an edge or a wing of zero length or area, a
+// straight angle) and constraints of fixed particles make no correction, as in the scalar
+// kernels. Results equal the scalar path's up to floating-point rounding.
+#pragma once
+
+#include <array>
+
+#include "nucleon/types.h"
+
+namespace nucleon {
+
+constexpr Index kAngularBatchSize = 8;
+
+// Colored Gauss–Seidel: the constraints of a range share no free particle, so each batch gathers
+// its particles, projects all eight and writes the free ones back.
+template <std::size_t N>
+struct AngularBatch {
+  const std::array<Index, N>* particles = nullptr;
+  const Real* rest = nullptr;
+  const Real* compliance = nullptr;
+  const Real* compressionCompliance = nullptr;
+  Real* lambda = nullptr;
+  Vec3* positions = nullptr;
+  // The inverse masses of each constraint's particles in pool order (the pool's endInverseMass).
+  const std::array<Real, N>* endInverseMass = nullptr;
+  Real inverseH2 = 0;  // 1/h²
+};
+
+// Jacobi: every constraint reads the same positions and writes its N corrections into its slots
+// (correction[N c + k]), with split inverse masses and the Chebyshev update of
+// constraint_sweeps.h: u = ω γ Δx + (ω − 1) u_prev for hard constraints when `carry` ≠ 0 (a slot
+// whose history opposes the new step restarts), u = γ Δx otherwise; λ += (ω γ or γ) Δλ alike.
+template <std::size_t N>
+struct AngularJacobiBatch {
+  const std::array<Index, N>* particles = nullptr;
+  const Real* rest = nullptr;
+  const Real* compliance = nullptr;
+  const Real* compressionCompliance = nullptr;
+  Real* lambda = nullptr;
+  const Vec3* positions = nullptr;
+  const Real* splitInverseMass = nullptr;  // w_i times the family's constraint count on i
+  Vec3* correction = nullptr;
+  Real inverseH2 = 0;   // 1/h²
+  Real relaxation = 1;  // γ
+  Real step = 1;        // ω γ
+  Real carry = 0;       // ω − 1 (0: plain sweep, the old slots are not read)
+};
+
+// True when this build and CPU run the batched path (float solver state, AVX2 and FMA).
+bool angularBatchesAvailable();
+
+// Each projects constraints begin, begin+1, … in batches of eight (in place, or into the Jacobi
+// slots) and returns the first constraint it left to the caller (fewer than eight remain, or the
+// batched path is unavailable: then `begin`).
+Index projectHingeBatches(const AngularBatch<4>& batch, Index begin, Index end);
+Index projectHingeJacobiBatches(const AngularJacobiBatch<4>& batch, Index begin, Index end);
+Index projectAngleBatches(const AngularBatch<3>& batch, Index begin, Index end);
+Index projectAngleJacobiBatches(const AngularJacobiBatch<3>& batch, Index begin, Index end);
+
+}  // namespace nucleon
