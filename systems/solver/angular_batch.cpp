@@ -4,6 +4,7 @@
 
 #include "systems/solver/distance_batch.h"
 #include "systems/solver/distance_lanes.h"
+#include "systems/solver/point_lanes.h"
 
 namespace nucleon {
 
@@ -15,9 +16,7 @@ namespace {
 
 #define NUCLEON_LANES [[gnu::target("avx2,fma"), gnu::always_inline]] inline
 
-struct Lane3 {
-  __m256 x, y, z;
-};
+using Lane3 = point_lanes::Lanes3;
 
 NUCLEON_LANES Lane3 sub(const Lane3& a, const Lane3& b) {
   return {_mm256_sub_ps(a.x, b.x), _mm256_sub_ps(a.y, b.y), _mm256_sub_ps(a.z, b.z)};
@@ -180,35 +179,13 @@ NUCLEON_LANES __m256 multiplierStep(const AngleLanes<N>& a, const __m256* w, __m
       active);
 }
 
-// The positions of the corners of constraints k … k+7, one Lane3 per corner. Each particle is
-// loaded as (x, y, z, 0) with two loads that stay inside its own twelve bytes, and each corner's
-// eight rows are transposed in registers: on the machines measured, twelve gathers per batch were
-// most of the batch's time.
-NUCLEON_LANES __m128 loadPoint(const Vec3& point) {
-  const __m128 xy = _mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(point.data())));
-  return _mm_movelh_ps(xy, _mm_load_ss(point.data() + 2));
-}
-
-// Eight points (x, y, z, 0), one per lane, to lanes of x, y and z.
-NUCLEON_LANES Lane3 transposeRows(const __m128* point) {
-  __m256 row[4];
-  for (int j = 0; j < 4; ++j) row[j] = _mm256_set_m128(point[j + 4], point[j]);
-  // Rows (x_j y_j z_j 0 | x_j+4 y_j+4 z_j+4 0) to (x_0 … x_7), (y_0 … y_7), (z_0 … z_7).
-  const __m256 t0 = _mm256_unpacklo_ps(row[0], row[1]), t1 = _mm256_unpacklo_ps(row[2], row[3]);
-  const __m256 t2 = _mm256_unpackhi_ps(row[0], row[1]), t3 = _mm256_unpackhi_ps(row[2], row[3]);
-  return {_mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(1, 0, 1, 0)),
-          _mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(3, 2, 3, 2)),
-          _mm256_shuffle_ps(t2, t3, _MM_SHUFFLE(1, 0, 1, 0))};
-}
-
+// The positions of the corners of constraints k … k+7, one Lane3 per corner (point_lanes.h:
+// twelve gathers per hinge batch were most of its time).
 template <std::size_t N>
 NUCLEON_LANES void loadCorners(const Vec3* positions, const std::array<Index, N>* particles,
                                Index k, Lane3* x) {
-  for (std::size_t c = 0; c < N; ++c) {
-    __m128 point[8];
-    for (int j = 0; j < 8; ++j) point[j] = loadPoint(positions[particles[k + j][c]]);
-    x[c] = transposeRows(point);
-  }
+  for (std::size_t c = 0; c < N; ++c)
+    x[c] = point_lanes::loadCorner(positions, particles, k, static_cast<int>(c));
 }
 
 // One inverse mass per corner of constraints k … k+7, from a per-particle array (`particles`) or
@@ -307,8 +284,8 @@ template <class Lanes>
         // Adaptive restart per slot, as in the scalar path (constraint_sweeps.h): history that
         // opposes the new move is dropped.
         __m128 point[8];
-        for (int j = 0; j < 8; ++j) point[j] = loadPoint(slot[n * j + c]);
-        const Lane3 old = transposeRows(point);
+        for (int j = 0; j < 8; ++j) point[j] = point_lanes::loadPoint(slot[n * j + c]);
+        const Lane3 old = point_lanes::transposeRows(point);
         const __m256 carried = _mm256_and_ps(keep, _mm256_cmp_ps(dot(u, old), zero, _CMP_GE_OQ));
         u = {_mm256_fmadd_ps(carried, old.x, u.x), _mm256_fmadd_ps(carried, old.y, u.y),
              _mm256_fmadd_ps(carried, old.z, u.z)};

@@ -3,12 +3,13 @@
 #include <type_traits>
 
 #include "systems/solver/distance_lanes.h"
+#include "systems/solver/point_lanes.h"
 
 namespace nucleon {
 
 #if NUCLEON_DISTANCE_LANES
 
-// The kernel reads positions as packed floats and gathers four-byte lanes.
+// The kernel reads positions as packed floats (point_lanes.h).
 static_assert(std::is_same_v<Real, float>, "the batched distance path is float-only");
 
 namespace {
@@ -16,7 +17,6 @@ namespace {
 using distance_lanes::multiplierScale;
 
 [[gnu::target("avx2,fma")]] Index projectAvx2(const DistanceBatch& b, Index begin, Index end) {
-  const float* base = reinterpret_cast<const float*>(b.positions);
   const __m256 zero = _mm256_setzero_ps();
   const __m256 inverseH2 = _mm256_set1_ps(b.inverseH2);
   // The pairs (a0 b0 a1 b1 a2 b2 a3 b3) become (a0 a1 a2 a3 b0 b1 b2 b3).
@@ -31,12 +31,11 @@ using distance_lanes::multiplierScale;
     const __m256i high = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(pairs + 1), split);
     const __m256i a = _mm256_permute2x128_si256(low, high, 0x20);
     const __m256i c = _mm256_permute2x128_si256(low, high, 0x31);
-    const __m256i a3 = _mm256_add_epi32(_mm256_slli_epi32(a, 1), a);  // float offset of x_a
-    const __m256i c3 = _mm256_add_epi32(_mm256_slli_epi32(c, 1), c);
-    __m256 xa = _mm256_i32gather_ps(base, a3, 4), ya = _mm256_i32gather_ps(base + 1, a3, 4),
-           za = _mm256_i32gather_ps(base + 2, a3, 4);
-    __m256 xb = _mm256_i32gather_ps(base, c3, 4), yb = _mm256_i32gather_ps(base + 1, c3, 4),
-           zb = _mm256_i32gather_ps(base + 2, c3, 4);
+    // Positions loaded per particle and transposed (point_lanes.h), not gathered.
+    const point_lanes::Lanes3 ends[2] = {point_lanes::loadCorner(b.positions, b.particles, k, 0),
+                                         point_lanes::loadCorner(b.positions, b.particles, k, 1)};
+    const __m256 xa = ends[0].x, ya = ends[0].y, za = ends[0].z;
+    const __m256 xb = ends[1].x, yb = ends[1].y, zb = ends[1].z;
     __m256 wa, wb;
     if (b.endInverseMass) {
       const float* pairsOfW = reinterpret_cast<const float*>(b.endInverseMass + k);
@@ -81,7 +80,6 @@ using distance_lanes::multiplierScale;
 // to the constraints' slots. Positions are only read, so constraints may share particles.
 [[gnu::target("avx2,fma")]] Index projectJacobiAvx2(const DistanceJacobiBatch& b, Index begin,
                                                     Index end) {
-  const float* base = reinterpret_cast<const float*>(b.positions);
   const __m256 zero = _mm256_setzero_ps();
   const __m256 inverseH2 = _mm256_set1_ps(b.inverseH2);
   const __m256 relaxation = _mm256_set1_ps(b.relaxation), step = _mm256_set1_ps(b.step);
@@ -96,14 +94,11 @@ using distance_lanes::multiplierScale;
     const __m256i high = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(pairs + 1), split);
     const __m256i a = _mm256_permute2x128_si256(low, high, 0x20);
     const __m256i c = _mm256_permute2x128_si256(low, high, 0x31);
-    const __m256i a3 = _mm256_add_epi32(_mm256_slli_epi32(a, 1), a);
-    const __m256i c3 = _mm256_add_epi32(_mm256_slli_epi32(c, 1), c);
-    const __m256 dx =
-        _mm256_sub_ps(_mm256_i32gather_ps(base, a3, 4), _mm256_i32gather_ps(base, c3, 4));
-    const __m256 dy =
-        _mm256_sub_ps(_mm256_i32gather_ps(base + 1, a3, 4), _mm256_i32gather_ps(base + 1, c3, 4));
-    const __m256 dz =
-        _mm256_sub_ps(_mm256_i32gather_ps(base + 2, a3, 4), _mm256_i32gather_ps(base + 2, c3, 4));
+    const point_lanes::Lanes3 endA = point_lanes::loadCorner(b.positions, b.particles, k, 0);
+    const point_lanes::Lanes3 endB = point_lanes::loadCorner(b.positions, b.particles, k, 1);
+    const __m256 dx = _mm256_sub_ps(endA.x, endB.x);
+    const __m256 dy = _mm256_sub_ps(endA.y, endB.y);
+    const __m256 dz = _mm256_sub_ps(endA.z, endB.z);
     const __m256 wa = _mm256_i32gather_ps(b.splitInverseMass, a, 4);
     const __m256 wb = _mm256_i32gather_ps(b.splitInverseMass, c, 4);
 

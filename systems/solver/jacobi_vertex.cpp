@@ -9,6 +9,7 @@
 #include "systems/solver/distance_batch.h"
 
 #include "systems/solver/distance_lanes.h"
+#include "systems/solver/point_lanes.h"
 
 namespace nucleon {
 namespace {
@@ -55,14 +56,13 @@ void moveBlockScalar(const VertexSlotRows& rows, std::size_t b, std::span<const 
 
 static_assert(std::is_same_v<Real, float>, "the batched vertex path is float-only");
 
-// Pass 1 for blocks [begin, end), eight particles at a time. Per row: three gathers of the
+// Pass 1 for blocks [begin, end), eight particles at a time. Per row: eight loads of the
 // neighbours' positions, three contiguous loads (other, rest, W_j) and one store (the multiplier
 // step), against the slot path's two Vec3 slot writes and reads per constraint.
 [[gnu::target("avx2,fma")]] void moveBlocksAvx2(const VertexSlotRows& rows,
                                                 std::span<const Vec3> positions, float* move,
                                                 float* laneLambda, const VertexJacobiStep& step,
                                                 std::size_t begin, std::size_t end) {
-  const float* base = reinterpret_cast<const float*>(positions.data());
   const __m256i laneIndex = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256i lastParticle = _mm256_set1_epi32(static_cast<int>(positions.size()) - 1);
   const __m256 zero = _mm256_setzero_ps();
@@ -76,20 +76,19 @@ static_assert(std::is_same_v<Real, float>, "the batched vertex path is float-onl
     // Lanes past the last particle read the last particle (their rows are all padding).
     const __m256i own = _mm256_min_epi32(
         _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(kLanes * b)), laneIndex), lastParticle);
-    const __m256i own3 = _mm256_add_epi32(_mm256_slli_epi32(own, 1), own);
-    const __m256 xi = _mm256_i32gather_ps(base, own3, 4);
-    const __m256 yi = _mm256_i32gather_ps(base + 1, own3, 4);
-    const __m256 zi = _mm256_i32gather_ps(base + 2, own3, 4);
+    alignas(32) Index owners[kLanes];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(owners), own);
+    const point_lanes::Lanes3 ownPosition = point_lanes::loadPoints(positions.data(), owners);
+    const __m256 xi = ownPosition.x, yi = ownPosition.y, zi = ownPosition.z;
     const __m256 ownW = _mm256_loadu_ps(rows.splitInverseMass.data() + kLanes * b);
     __m256 sx = zero, sy = zero, sz = zero;
     for (Index r = rows.blockRow[b]; r < rows.blockRow[b + 1]; ++r) {
       const std::size_t at = kLanes * r;
-      const __m256i other =
-          _mm256_loadu_si256(reinterpret_cast<const __m256i*>(rows.other.data() + at));
-      const __m256i other3 = _mm256_add_epi32(_mm256_slli_epi32(other, 1), other);
-      const __m256 dx = _mm256_sub_ps(xi, _mm256_i32gather_ps(base, other3, 4));
-      const __m256 dy = _mm256_sub_ps(yi, _mm256_i32gather_ps(base + 1, other3, 4));
-      const __m256 dz = _mm256_sub_ps(zi, _mm256_i32gather_ps(base + 2, other3, 4));
+      const point_lanes::Lanes3 other =
+          point_lanes::loadPoints(positions.data(), rows.other.data() + at);
+      const __m256 dx = _mm256_sub_ps(xi, other.x);
+      const __m256 dy = _mm256_sub_ps(yi, other.y);
+      const __m256 dz = _mm256_sub_ps(zi, other.z);
       const __m256 length = distance_lanes::length(dx, dy, dz);
       // s = −C / ((W_i + W_j) |d|), C = |d| − L: the shared kernel's hard step.
       const __m256 s =
