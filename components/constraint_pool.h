@@ -59,7 +59,9 @@ struct BuiltinSolveState : ConstraintSolveState {
   // Vertex-centric Jacobi (systems/solver/jacobi_vertex.h), for two-particle pools whose
   // constraints are all hard and undamped (`vertexJacobi`): the slot rows, and per particle the
   // move of the family's last Jacobi sweep, the Chebyshev history (blocks of eight particles as
-  // x×8, y×8, z×8), and per lane of the rows the sweep's multiplier step (scratch).
+  // x×8, y×8, z×8), and per lane of the rows the multiplier steps of the substep's vertex
+  // sweeps so far, summed (`vertexLambdaPending`: some are not yet in λ; bookVertexMultipliers,
+  // constraint_sweeps.h, adds them).
   // `vertexHistory` says which history is current: the per-particle moves (the last sweep took
   // the vertex path) or the correction slots (it took the slot path).
   VertexSlotRows vertexRows;
@@ -67,6 +69,7 @@ struct BuiltinSolveState : ConstraintSolveState {
   std::vector<Real> vertexLaneLambda;
   bool vertexJacobi = false;
   bool vertexHistory = false;
+  bool vertexLambdaPending = false;
 };
 
 template <std::size_t N>

@@ -38,13 +38,14 @@ World deformedCloth(int threads) {
 std::vector<Vec3> sweepStretch(WorldState& s, const std::vector<Vec3>& start, Real rho, int sweeps,
                                JacobiPath path, int threads = 2) {
   s.particles.p = start;
-  std::fill(s.constraints.stretch.lambda.begin(), s.constraints.stretch.lambda.end(), Real(0));
+  resetMultipliers(s.constraints.stretch);
   SweepContext context{s.particles, kH, 1, nullptr};
   context.chebyshevRho = rho;
   tbb::task_arena arena(threads);
   arena.execute([&] {
     for (int k = 0; k < sweeps; ++k)
       solveJacobi<DistanceKernel>(s.constraints.stretch, context, path);
+    bookVertexMultipliers(s.constraints.stretch);
   });
   return s.particles.p;
 }

@@ -250,6 +250,25 @@ inline Index projectAngularBatches(const AngularBatch<3>& batch, Index begin, In
 }
 }  // namespace sweep_detail
 
+// Adds the multiplier steps that vertex-centric sweeps left in the lanes (jacobi_vertex.h) to the
+// pool's λ; a no-op for other pools. The solve calls it at the end of each substep, before
+// anything reads λ, and clears the lanes' sum with λ at the start (resetMultipliers).
+template <class Pool>
+void bookVertexMultipliers(Pool& pool) {
+  if constexpr (requires { pool.vertexLambdaPending; }) {
+    if (!pool.vertexLambdaPending) return;
+    bookVertexLambda(pool.vertexRows, pool.vertexLaneLambda, pool.lambda);
+    pool.vertexLambdaPending = false;
+  }
+}
+
+// λ = 0 for every constraint of the pool, as at the start of a substep, pending lanes included.
+template <class Pool>
+void resetMultipliers(Pool& pool) {
+  std::fill(pool.lambda.begin(), pool.lambda.end(), Real(0));
+  if constexpr (requires { pool.vertexLambdaPending; }) pool.vertexLambdaPending = false;
+}
+
 // Which form of the Jacobi sweep runs: the vertex-centric one wherever it applies (Automatic), or
 // the slot path always (Slots; the reference the tests compare the vertex path with).
 enum class JacobiPath { Automatic, Slots };
@@ -273,14 +292,16 @@ void solveJacobi(Pool& pool, const SweepContext& context, JacobiPath path = Jaco
       step.sheetFactor = carries ? omega * sheet : sheet;
       step.carry = carries ? factors.carry : Real(0);
       solveDistanceJacobiVertex(pool.vertexRows, pool.vertexMove, pool.vertexLaneLambda,
-                                pool.lambda, context.particles.p, step);
+                                context.particles.p, step, pool.vertexLambdaPending);
       pool.vertexHistory = true;
+      pool.vertexLambdaPending = true;
       return;
     }
   }
   if constexpr (requires { pool.vertexHistory; }) {
     if (pool.vertexHistory) factors.carry = 0;  // the slots are stale: restart
     pool.vertexHistory = false;
+    bookVertexMultipliers(pool);  // the slot path books its own as it goes
   }
   // Blocks of kDistanceBatchSize constraints from constraint 0, whatever the partitioning: which
   // constraints take the batched path, and hence the rounding, never depends on the thread count.

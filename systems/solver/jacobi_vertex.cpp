@@ -20,7 +20,7 @@ constexpr Real kTiny = Real(1e-12);
 
 // Pass 1 for the particles of block b, one at a time: the arithmetic of moveBlocksAvx2 below.
 void moveBlockScalar(const VertexSlotRows& rows, std::size_t b, std::span<const Vec3> positions,
-                     Real* move, Real* laneLambda, const VertexJacobiStep& step) {
+                     Real* move, Real* laneLambda, const VertexJacobiStep& step, bool accumulate) {
   for (Index lane = 0; lane < kLanes; ++lane) {
     const std::size_t i = kLanes * b + lane;
     if (i >= positions.size()) break;
@@ -33,11 +33,13 @@ void moveBlockScalar(const VertexSlotRows& rows, std::size_t b, std::span<const 
       const Vec3 d = own - positions[rows.other[at]];
       const Real length = d.norm();
       const Real stiffness = ownW + rows.otherSplitInverseMass[at];
-      laneLambda[at] = 0;
-      if (!(length >= kTiny) || !(stiffness >= kTiny)) continue;
-      const Real s = (rows.rest[at] - length) / (stiffness * length);
-      sum += s * d;
-      laneLambda[at] = factor * s * length;
+      Real multiplierStep = 0;
+      if (length >= kTiny && stiffness >= kTiny) {
+        const Real s = (rows.rest[at] - length) / (stiffness * length);
+        sum += s * d;
+        multiplierStep = factor * s * length;
+      }
+      laneLambda[at] = accumulate ? laneLambda[at] + multiplierStep : multiplierStep;
     }
     Vec3 m = (factor * rows.inverseMass[i]) * sum;
     Real* history = move + 3 * kLanes * b + lane;
@@ -62,7 +64,8 @@ static_assert(std::is_same_v<Real, float>, "the batched vertex path is float-onl
 [[gnu::target("avx2,fma")]] void moveBlocksAvx2(const VertexSlotRows& rows,
                                                 std::span<const Vec3> positions, float* move,
                                                 float* laneLambda, const VertexJacobiStep& step,
-                                                std::size_t begin, std::size_t end) {
+                                                bool accumulate, std::size_t begin,
+                                                std::size_t end) {
   const __m256i laneIndex = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256i lastParticle = _mm256_set1_epi32(static_cast<int>(positions.size()) - 1);
   const __m256 zero = _mm256_setzero_ps();
@@ -97,7 +100,10 @@ static_assert(std::is_same_v<Real, float>, "the batched vertex path is float-onl
       sx = _mm256_fmadd_ps(s, dx, sx);
       sy = _mm256_fmadd_ps(s, dy, sy);
       sz = _mm256_fmadd_ps(s, dz, sz);
-      _mm256_storeu_ps(laneLambda + at, _mm256_mul_ps(_mm256_mul_ps(factor, s), length));
+      const __m256 multiplierStep = _mm256_mul_ps(_mm256_mul_ps(factor, s), length);
+      _mm256_storeu_ps(laneLambda + at,
+                       accumulate ? _mm256_add_ps(_mm256_loadu_ps(laneLambda + at), multiplierStep)
+                                  : multiplierStep);
     }
     const __m256 scale =
         _mm256_mul_ps(factor, _mm256_loadu_ps(rows.inverseMass.data() + kLanes * b));
@@ -188,27 +194,26 @@ VertexSlotRows buildVertexSlotRows(std::span<const std::array<Index, 2>> constra
 }
 
 void solveDistanceJacobiVertex(const VertexSlotRows& rows, std::span<Real> move,
-                               std::span<Real> laneLambda, std::span<Real> lambda,
-                               std::span<Vec3> positions, const VertexJacobiStep& step) {
+                               std::span<Real> laneLambda, std::span<Vec3> positions,
+                               const VertexJacobiStep& step, bool accumulate) {
   const std::size_t blocks = rows.blockCount();
   const std::span<const Vec3> p = positions;
   // Pass 1: every particle's move from the same positions, into the history, and every slot's
-  // multiplier step.
+  // multiplier step into its lane.
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 64),
                     [&](const tbb::blocked_range<std::size_t>& r) {
 #if NUCLEON_DISTANCE_LANES
                       if (distanceBatchesAvailable()) {
-                        moveBlocksAvx2(rows, p, move.data(), laneLambda.data(), step, r.begin(),
-                                       r.end());
+                        moveBlocksAvx2(rows, p, move.data(), laneLambda.data(), step, accumulate,
+                                       r.begin(), r.end());
                         return;
                       }
 #endif
                       for (std::size_t b = r.begin(); b != r.end(); ++b)
-                        moveBlockScalar(rows, b, p, move.data(), laneLambda.data(), step);
+                        moveBlockScalar(rows, b, p, move.data(), laneLambda.data(), step,
+                                        accumulate);
                     });
-  // Pass 2: the moves, and the multipliers of the constraints in the same proportion of the
-  // pool as the range's blocks are of the particles (each constraint in exactly one range).
-  const std::size_t constraints = lambda.size();
+  // Pass 2: the moves.
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 256),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t b = r.begin(); b != r.end(); ++b) {
@@ -219,13 +224,19 @@ void solveDistanceJacobiVertex(const VertexSlotRows& rows, std::span<Real> move,
                           positions[kLanes * b + lane] += Vec3(
                               history[lane], history[kLanes + lane], history[2 * kLanes + lane]);
                       }
-                      const std::size_t end = r.end() * constraints / blocks;
-                      std::size_t c = r.begin() * constraints / blocks;
+                    });
+}
+
+void bookVertexLambda(const VertexSlotRows& rows, std::span<const Real> laneLambda,
+                      std::span<Real> lambda) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, lambda.size(), 4096),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      std::size_t c = r.begin();
 #if NUCLEON_DISTANCE_LANES
                       if (distanceBatchesAvailable())
-                        c = bookLambdaAvx2(rows, laneLambda.data(), lambda.data(), c, end);
+                        c = bookLambdaAvx2(rows, laneLambda.data(), lambda.data(), c, r.end());
 #endif
-                      for (; c < end; ++c) lambda[c] += laneLambda[rows.lambdaLane[c]];
+                      for (; c < r.end(); ++c) lambda[c] += laneLambda[rows.lambdaLane[c]];
                     });
 }
 

@@ -54,12 +54,20 @@ struct VertexJacobiStep {
   Real carry = 0;        // ω − 1; 0 on plain sweeps, which neither read nor carry the history
 };
 
-// One sweep: moves `positions` (p) and adds factor · Δλ_c to lambda[c] (the value its end-0 slot
-// computed); `move` is the pool's per-particle history (ConstraintPool::vertexMove), read when
-// step.carry ≠ 0 and overwritten with this sweep's moves, and `laneLambda` scratch of one value
-// per lane of the rows (ConstraintPool::vertexLaneLambda).
+// One sweep: moves `positions` (p); `move` is the pool's per-particle history
+// (ConstraintPool::vertexMove), read when step.carry ≠ 0 and overwritten with this sweep's moves.
+// Each lane of the rows gets its slot's factor · Δλ in `laneLambda` (ConstraintPool::
+// vertexLaneLambda): added to what the lane holds when `accumulate`, else stored. The multipliers
+// are booked once for all the sweeps so summed (bookVertexLambda), not after every sweep: a
+// hard constraint's λ enters no sweep (its α̃λ term vanishes), and the gather that booked them
+// was 7–8% of a hanging cloth's step. Summed in the lane in sweep order and added to a λ that
+// was zero, λ_c is bitwise what booking after every sweep gave.
 void solveDistanceJacobiVertex(const VertexSlotRows& rows, std::span<Real> move,
-                               std::span<Real> laneLambda, std::span<Real> lambda,
-                               std::span<Vec3> positions, const VertexJacobiStep& step);
+                               std::span<Real> laneLambda, std::span<Vec3> positions,
+                               const VertexJacobiStep& step, bool accumulate);
+
+// λ_c += the lane sum of constraint c's end-0 slot, for every constraint.
+void bookVertexLambda(const VertexSlotRows& rows, std::span<const Real> laneLambda,
+                      std::span<Real> lambda);
 
 }  // namespace nucleon

@@ -148,8 +148,7 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
   ParticlePool& particles = pools.particles;
   const SweepPlan& plan = pools.plan;
   const bool anyContacts = pools.contacts.size() > 0 || pools.primitiveContacts.size() > 0;
-  constraints.forEach(
-      [](auto& pool) { std::fill(pool.lambda.begin(), pool.lambda.end(), Real(0)); });
+  constraints.forEach([](auto& pool) { resetMultipliers(pool); });
   SweepContext sweep{particles, context.h, settings.relaxation, nullptr};
   sweep.chebyshevRho = settings.chebyshevRho;
   // A registered family that did not opt into Jacobi's acceleration turns it off for every
@@ -178,6 +177,7 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
         roundsDone % settings.cascadeEvery == 0)
       runCascade(pools, settings, context, report);
   }
+  constraints.forEach([](auto& pool) { bookVertexMultipliers(pool); });
   if (plan.ops.empty() && anyContacts)
     report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
   if (pools.colliders.size() > 0)
