@@ -214,8 +214,6 @@ template <class Lanes>
                                               Index end) {
   constexpr int n = Lanes::kArity;
   const __m256 inverseH2 = _mm256_set1_ps(b.inverseH2), zero = _mm256_setzero_ps();
-  alignas(32) float moved[n][3][8];
-  alignas(32) float free[n][8];
   Index k = begin;
   for (; k + kAngularBatchSize <= end; k += kAngularBatchSize) {
     Lane3 x[n];
@@ -230,16 +228,16 @@ template <class Lanes>
     _mm256_storeu_ps(b.lambda + k, _mm256_add_ps(lambda, deltaLambda));
     for (int c = 0; c < n; ++c) {
       const __m256 factor = _mm256_mul_ps(w[c], deltaLambda);
-      _mm256_store_ps(moved[c][0], _mm256_fmadd_ps(factor, angle.gradient[c].x, x[c].x));
-      _mm256_store_ps(moved[c][1], _mm256_fmadd_ps(factor, angle.gradient[c].y, x[c].y));
-      _mm256_store_ps(moved[c][2], _mm256_fmadd_ps(factor, angle.gradient[c].z, x[c].z));
-      _mm256_store_ps(free[c], _mm256_cmp_ps(w[c], zero, _CMP_NEQ_OQ));
+      const Lane3 moved = {_mm256_fmadd_ps(factor, angle.gradient[c].x, x[c].x),
+                           _mm256_fmadd_ps(factor, angle.gradient[c].y, x[c].y),
+                           _mm256_fmadd_ps(factor, angle.gradient[c].z, x[c].z)};
+      __m128 row[8];
+      point_lanes::transposeLanes(moved, row);
+      // Pins (w = 0) are not written: constraints of one color may share them.
+      const int free = _mm256_movemask_ps(_mm256_cmp_ps(w[c], zero, _CMP_NEQ_OQ));
+      for (int j = 0; j < 8; ++j)
+        if (free >> j & 1) point_lanes::storePoint(b.positions[b.particles[k + j][c]], row[j]);
     }
-    // Pins (w = 0) are not written: constraints of one color may share them.
-    for (int j = 0; j < 8; ++j)
-      for (int c = 0; c < n; ++c)
-        if (free[c][j] != 0)
-          b.positions[b.particles[k + j][c]] = Vec3(moved[c][0][j], moved[c][1][j], moved[c][2][j]);
   }
   return k;
 }
@@ -253,7 +251,6 @@ template <class Lanes>
   const __m256 relaxation = _mm256_set1_ps(b.relaxation), step = _mm256_set1_ps(b.step);
   const __m256 carry = _mm256_set1_ps(b.carry);
   const bool accelerated = b.carry != 0;
-  alignas(32) float move[n][3][8];
   Index k = begin;
   for (; k + kAngularBatchSize <= end; k += kAngularBatchSize) {
     Lane3 x[n];
@@ -290,12 +287,10 @@ template <class Lanes>
         u = {_mm256_fmadd_ps(carried, old.x, u.x), _mm256_fmadd_ps(carried, old.y, u.y),
              _mm256_fmadd_ps(carried, old.z, u.z)};
       }
-      _mm256_store_ps(move[c][0], u.x);
-      _mm256_store_ps(move[c][1], u.y);
-      _mm256_store_ps(move[c][2], u.z);
+      __m128 row[8];
+      point_lanes::transposeLanes(u, row);
+      for (int j = 0; j < 8; ++j) point_lanes::storePoint(slot[n * j + c], row[j]);
     }
-    for (int j = 0; j < 8; ++j, slot += n)
-      for (int c = 0; c < n; ++c) slot[c] = Vec3(move[c][0][j], move[c][1][j], move[c][2][j]);
   }
   return k;
 }

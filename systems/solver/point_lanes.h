@@ -13,6 +13,8 @@
 
 #if NUCLEON_DISTANCE_LANES
 
+#include <cstring>
+
 #include "nucleon/types.h"
 
 namespace nucleon::point_lanes {
@@ -21,9 +23,12 @@ struct Lanes3 {
   __m256 x, y, z;
 };
 
+// (x, y) as one 8-byte load through memcpy (a Vec3 is only 4-byte aligned: a double read through
+// a cast pointer would be a misaligned load in the language's terms), z as a float load.
 [[gnu::target("avx2,fma"), gnu::always_inline]] inline __m128 loadPoint(const Vec3& point) {
-  const __m128 xy = _mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(point.data())));
-  return _mm_movelh_ps(xy, _mm_load_ss(point.data() + 2));
+  double xy;
+  std::memcpy(&xy, point.data(), sizeof xy);
+  return _mm_movelh_ps(_mm_castpd_ps(_mm_set_sd(xy)), _mm_load_ss(point.data() + 2));
 }
 
 // Eight rows (x, y, z, 0), one per lane, to lanes of x, y and z.
@@ -36,6 +41,30 @@ struct Lanes3 {
   return {_mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(1, 0, 1, 0)),
           _mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(3, 2, 3, 2)),
           _mm256_shuffle_ps(t2, t3, _MM_SHUFFLE(1, 0, 1, 0))};
+}
+
+// The inverse of transposeRows: lanes of x, y and z to eight rows (x, y, z, 0).
+[[gnu::target("avx2,fma"), gnu::always_inline]] inline void transposeLanes(const Lanes3& lanes,
+                                                                           __m128* point) {
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 t0 = _mm256_unpacklo_ps(lanes.x, lanes.y), t1 = _mm256_unpackhi_ps(lanes.x, lanes.y);
+  const __m256 t2 = _mm256_unpacklo_ps(lanes.z, zero), t3 = _mm256_unpackhi_ps(lanes.z, zero);
+  // Rows j and j + 4 share a register: (x_j y_j z_j 0 | x_j+4 y_j+4 z_j+4 0).
+  const __m256 row[4] = {_mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0)),
+                         _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2)),
+                         _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0)),
+                         _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(3, 2, 3, 2))};
+  for (int j = 0; j < 4; ++j) {
+    point[j] = _mm256_castps256_ps128(row[j]);
+    point[j + 4] = _mm256_extractf128_ps(row[j], 1);
+  }
+}
+
+// Writes a row's (x, y, z) to `point`: two stores inside its twelve bytes.
+[[gnu::target("avx2,fma"), gnu::always_inline]] inline void storePoint(Vec3& point, __m128 row) {
+  const double xy = _mm_cvtsd_f64(_mm_castps_pd(row));
+  std::memcpy(point.data(), &xy, sizeof xy);
+  _mm_store_ss(point.data() + 2, _mm_movehl_ps(row, row));
 }
 
 // The positions of particles ids[0 … 7].
