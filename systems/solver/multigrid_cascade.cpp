@@ -1,9 +1,18 @@
 #include "systems/solver/multigrid_cascade.h"
 
 #include <algorithm>
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <thread>
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#endif
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "systems/solver/distance_batch.h"
 #include "systems/solver/tether_projection.h"
@@ -72,6 +81,69 @@ void sweepLevel(const HierarchyLevel& level, ParticlePool& particles) {
                                    std::min(end, begin + r.end() * kDistanceBatchSize));
                       });
   }
+}
+
+// All `sweeps` sweeps of a level too small for a parallel loop per colour, shared by the arena's
+// threads without one: every colour of every sweep is cut into chunks of kChunkEdges edges (whole
+// batches from the colour's start, as above), numbered in sweep and colour order, and each thread
+// takes the next number from a shared ticket counter. A chunk may start once every chunk of the
+// earlier colours is done (a count of done chunks, waited on with a spin): chunks of one colour
+// share no free particle, so they run in any order on any thread with the same result, bit for
+// bit. No deadlock: a thread waits only for tickets drawn before its own, by threads that are
+// running them and wait for nothing later; a thread that never joins draws none. A wait that
+// lasts (the other thread descheduled: more threads than cores) yields the core. Against one
+// thread per level, three alternating runs each (2 threads): cloth_hang_128_fast 0.845–0.860 →
+// 0.822–0.831 ms/step, cloth_hang_256_fast 4.36–4.42 → 4.27–4.32, the same states.
+constexpr Index kChunkEdges = 64;
+
+// Waits until `done` reaches `count`: spins a while, then yields the core.
+void waitForChunks(const std::atomic<std::uint64_t>& done, std::uint64_t count) {
+  for (int spins = 0; done.load(std::memory_order_acquire) < count; ++spins) {
+    if (spins < 4096) {
+#if defined(__x86_64__) || defined(__i386__)
+      _mm_pause();
+#endif
+    } else {
+      std::this_thread::yield();
+    }
+  }
+}
+
+constexpr std::size_t kSharedLevelEdges = 1024;  // below: one thread (a chunk or two a colour)
+constexpr std::size_t kMaxSharedColors = 64;
+
+bool sweepLevelShared(const HierarchyLevel& level, ParticlePool& particles, int sweeps) {
+  const std::size_t colors = level.colorCount();
+  if (colors == 0 || colors > kMaxSharedColors || sweeps <= 0) return false;
+  // First chunk of each colour within a sweep; the chunks of a sweep.
+  std::array<Index, kMaxSharedColors + 1> colorChunk{};
+  for (std::size_t c = 0; c < colors; ++c) {
+    const Index edges = level.colorOffset[c + 1] - level.colorOffset[c];
+    colorChunk[c + 1] = colorChunk[c] + (edges + kChunkEdges - 1) / kChunkEdges;
+  }
+  const std::uint64_t perSweep = colorChunk[colors];
+  const std::uint64_t total = perSweep * static_cast<std::uint64_t>(sweeps);
+  std::atomic<std::uint64_t> next{0}, done{0};
+  const int threads = std::max(1, tbb::this_task_arena::max_concurrency());
+  tbb::parallel_for(0, threads, [&](int) {
+    for (;;) {
+      const std::uint64_t ticket = next.fetch_add(1, std::memory_order_relaxed);
+      if (ticket >= total) return;
+      const std::uint64_t sweep = ticket / perSweep;
+      const Index within = static_cast<Index>(ticket % perSweep);
+      const std::size_t color = static_cast<std::size_t>(
+          std::upper_bound(colorChunk.begin() + 1, colorChunk.begin() + colors + 1, within) -
+          colorChunk.begin() - 1);
+      // Every chunk of the earlier colours (this sweep's and all earlier sweeps') done.
+      const std::uint64_t before = sweep * perSweep + colorChunk[color];
+      waitForChunks(done, before);
+      const Index begin = level.colorOffset[color] + (within - colorChunk[color]) * kChunkEdges;
+      const Index end = std::min<Index>(level.colorOffset[color + 1], begin + kChunkEdges);
+      sweepEdges(level, particles, begin, end);
+      done.fetch_add(1, std::memory_order_release);
+    }
+  });
+  return true;
 }
 
 // The level's tethers, |p_i − p_pin| ≤ L, two at a time as in the fine tether sweep (a pin never
@@ -144,7 +216,11 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
     for (std::size_t l = hierarchy.levels.size() - 1; l >= 1; --l) {
       const HierarchyLevel& level = hierarchy.levels[l];
       const int sweeps = sweepsOfLevel(sweepsPerLevel, l);
-      for (int k = 0; k < sweeps; ++k) sweepLevel(level, particles);
+      const bool shared = level.edges.size() >= kSharedLevelEdges &&
+                          level.edges.size() < kSerialEdges &&
+                          sweepLevelShared(level, particles, sweeps);
+      if (!shared)
+        for (int k = 0; k < sweeps; ++k) sweepLevel(level, particles);
       if (sweeps > 0) sweepLevelTethers(level, particles);
       projections += level.edges.size() * static_cast<std::size_t>(sweeps) +
                      (sweeps > 0 ? level.tetherPin.size() : 0);
