@@ -61,7 +61,7 @@ struct Fixture {
         particles.p[a + 2] = origin;
         particles.p[a] = origin + edge;
         particles.p[a + 1] =
-            origin + 0.7f * (std::cos(opening) * edge + 0.1f * std::sin(opening) * side * 10);
+            origin + 0.07f * (std::cos(opening) * edge.normalized() + std::sin(opening) * side);
         if (k == kDegenerate) particles.p[a] = particles.p[a + 1] = origin;
         if (k == kStraight) particles.p[a + 1] = origin - edge;
         rest = kPi * (0.5f + 0.5f * unit(random));
@@ -92,17 +92,11 @@ void expectInPlaceMatchesScalar() {
   if (!angularBatchesAvailable()) GTEST_SKIP() << "no AVX2/FMA on this CPU";
   Fixture<n> batched, scalar;
   const Real invH = 1 / kH;
-  AngularBatch<n> batch;
-  batch.particles = batched.pool.particles.data();
-  batch.rest = batched.pool.rest.data();
-  batch.compliance = batched.pool.compliance.data();
-  batch.compressionCompliance = batched.pool.compressionCompliance.data();
-  batch.lambda = batched.pool.lambda.data();
-  batch.positions = batched.particles.p.data();
-  batch.endInverseMass = batched.pool.endInverseMass.data();
-  batch.inverseH2 = invH * invH;
+  const SweepContext batchedContext{batched.particles, kH};
+  const AngularBatch<n> batch =
+      sweep_detail::inPlaceBatchOf<Kernel>(batched.pool, batchedContext, invH);
   const Index size = static_cast<Index>(batched.pool.size());
-  const Index left = sweep_detail::projectAngularBatches(batch, 0, size);
+  const Index left = sweep_detail::projectBatches(batch, 0, size);
   EXPECT_EQ(left, 40u);  // five batches of eight; the caller projects the rest
   for (Index c = 0; c < size; ++c) {
     sweep_detail::projectInPlace<Kernel>(scalar.pool, c, scalar.particles, invH);
@@ -150,24 +144,13 @@ void expectJacobiMatchesScalar(Real carry) {
   factors.relaxation = 0.9f;
   factors.step = (1 + carry) * 0.9f;
   factors.carry = carry;
-  AngularJacobiBatch<n> batch;
-  batch.particles = batched.pool.particles.data();
-  batch.rest = batched.pool.rest.data();
-  batch.compliance = batched.pool.compliance.data();
-  batch.compressionCompliance = batched.pool.compressionCompliance.data();
-  batch.lambda = batched.pool.lambda.data();
-  batch.positions = batched.particles.p.data();
-  batch.splitInverseMass = batched.pool.splitInverseMass.data();
-  batch.correction = batched.pool.correction.data();
-  batch.inverseH2 = invH * invH;
-  batch.relaxation = factors.relaxation;
-  batch.step = factors.step;
-  batch.carry = factors.carry;
-  const Index size = static_cast<Index>(batched.pool.size());
-  const Index left = sweep_detail::projectAngularJacobiBatches(batch, 0, size);
-  EXPECT_EQ(left, 40u);
   SweepContext context{scalar.particles, kH};
   SweepContext batchedContext{batched.particles, kH};
+  const AngularJacobiBatch<n> batch =
+      sweep_detail::jacobiBatchOf<Kernel>(batched.pool, batchedContext, factors, invH);
+  const Index size = static_cast<Index>(batched.pool.size());
+  const Index left = sweep_detail::projectJacobiBatches(batch, 0, size);
+  EXPECT_EQ(left, 40u);
   for (Index c = 0; c < size; ++c) {
     sweep_detail::jacobiOne<Kernel>(scalar.pool, c, context, factors, invH);
     if (c >= left) sweep_detail::jacobiOne<Kernel>(batched.pool, c, batchedContext, factors, invH);

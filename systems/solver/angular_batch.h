@@ -20,45 +20,18 @@
 #include <array>
 
 #include "nucleon/types.h"
+#include "systems/solver/batch_parameters.h"
 
 namespace nucleon {
 
 constexpr Index kAngularBatchSize = 8;
 
-// Colored Gauss–Seidel: the constraints of a range share no free particle, so each batch gathers
-// its particles, projects all eight and writes the free ones back.
+// The batches' records (batch_parameters.h). In place, the inverse masses come from
+// endInverseMass; `unilateral` and the null-compliance form are the distance batches' only.
 template <std::size_t N>
-struct AngularBatch {
-  const std::array<Index, N>* particles = nullptr;
-  const Real* rest = nullptr;
-  const Real* compliance = nullptr;
-  const Real* compressionCompliance = nullptr;
-  Real* lambda = nullptr;
-  Vec3* positions = nullptr;
-  // The inverse masses of each constraint's particles in pool order (the pool's endInverseMass).
-  const std::array<Real, N>* endInverseMass = nullptr;
-  Real inverseH2 = 0;  // 1/h²
-};
-
-// Jacobi: every constraint reads the same positions and writes its N corrections into its slots
-// (correction[N c + k]), with split inverse masses and the Chebyshev update of
-// constraint_sweeps.h: u = ω γ Δx + (ω − 1) u_prev for hard constraints when `carry` ≠ 0 (a slot
-// whose history opposes the new step restarts), u = γ Δx otherwise; λ += (ω γ or γ) Δλ alike.
+using AngularBatch = InPlaceBatch<N>;
 template <std::size_t N>
-struct AngularJacobiBatch {
-  const std::array<Index, N>* particles = nullptr;
-  const Real* rest = nullptr;
-  const Real* compliance = nullptr;
-  const Real* compressionCompliance = nullptr;
-  Real* lambda = nullptr;
-  const Vec3* positions = nullptr;
-  const Real* splitInverseMass = nullptr;  // w_i times the family's constraint count on i
-  Vec3* correction = nullptr;
-  Real inverseH2 = 0;   // 1/h²
-  Real relaxation = 1;  // γ
-  Real step = 1;        // ω γ
-  Real carry = 0;       // ω − 1 (0: plain sweep, the old slots are not read)
-};
+using AngularJacobiBatch = JacobiBatch<N>;
 
 // True when this build and CPU run the batched path (float solver state, AVX2 and FMA).
 bool angularBatchesAvailable();

@@ -229,24 +229,75 @@ NUCLEON_KERNEL void jacobiOne(Pool& pool, std::size_t c, const SweepContext& con
 }  // namespace sweep_detail
 
 namespace sweep_detail {
-// The kernels with an AVX2 angular batch (angular_batch.h), and the batch functions of each.
+// The kernels with an AVX2 batch (distance_batch.h, angular_batch.h) where `Paths` allows it.
 template <class Kernel>
 constexpr bool kAngularKernel =
     std::is_same_v<Kernel, DihedralKernel> || std::is_same_v<Kernel, AngleKernel>;
+template <class Kernel, unsigned Paths>
+constexpr bool kBatched = ((Paths & kDistanceBatch) && std::is_base_of_v<DistanceKernel, Kernel>) ||
+                          ((Paths & kAngularBatch) && kAngularKernel<Kernel>);
+static_assert(kAngularBatchSize == kDistanceBatchSize, "one block size for every batch");
 
-inline Index projectAngularJacobiBatches(const AngularJacobiBatch<4>& batch, Index begin,
-                                         Index end) {
-  return projectHingeJacobiBatches(batch, begin, end);
+template <class Kernel>
+bool batchesAvailable() {
+  return kAngularKernel<Kernel> ? angularBatchesAvailable() : distanceBatchesAvailable();
 }
-inline Index projectAngularJacobiBatches(const AngularJacobiBatch<3>& batch, Index begin,
-                                         Index end) {
-  return projectAngleJacobiBatches(batch, begin, end);
+
+// The batch functions by arity: distance constraints, angles, dihedral hinges.
+inline Index projectBatches(const InPlaceBatch<2>& b, Index begin, Index end) {
+  return projectDistanceBatches(b, begin, end);
 }
-inline Index projectAngularBatches(const AngularBatch<4>& batch, Index begin, Index end) {
-  return projectHingeBatches(batch, begin, end);
+inline Index projectBatches(const InPlaceBatch<3>& b, Index begin, Index end) {
+  return projectAngleBatches(b, begin, end);
 }
-inline Index projectAngularBatches(const AngularBatch<3>& batch, Index begin, Index end) {
-  return projectAngleBatches(batch, begin, end);
+inline Index projectBatches(const InPlaceBatch<4>& b, Index begin, Index end) {
+  return projectHingeBatches(b, begin, end);
+}
+inline Index projectJacobiBatches(const JacobiBatch<2>& b, Index begin, Index end) {
+  return projectDistanceJacobiBatches(b, begin, end);
+}
+inline Index projectJacobiBatches(const JacobiBatch<3>& b, Index begin, Index end) {
+  return projectAngleJacobiBatches(b, begin, end);
+}
+inline Index projectJacobiBatches(const JacobiBatch<4>& b, Index begin, Index end) {
+  return projectHingeJacobiBatches(b, begin, end);
+}
+
+// A pool's batch records (batch_parameters.h).
+template <class Kernel, class Pool>
+InPlaceBatch<Kernel::kArity> inPlaceBatchOf(Pool& pool, const SweepContext& context, Real invH) {
+  InPlaceBatch<Kernel::kArity> batch;
+  batch.particles = pool.particles.data();
+  batch.rest = pool.rest.data();
+  batch.compliance = pool.compliance.data();
+  batch.compressionCompliance = pool.compressionCompliance.data();
+  batch.lambda = pool.lambda.data();
+  batch.positions = context.particles.p.data();
+  batch.inverseMass = context.particles.w.data();
+  batch.inverseH2 = invH * invH;
+  batch.unilateral = std::is_same_v<Kernel, TetherKernel>;
+  batch.endInverseMass = pool.endInverseMass.data();
+  return batch;
+}
+
+template <class Kernel, class Pool>
+JacobiBatch<Kernel::kArity> jacobiBatchOf(Pool& pool, const SweepContext& context,
+                                          const JacobiFactors& factors, Real invH) {
+  JacobiBatch<Kernel::kArity> batch;
+  batch.particles = pool.particles.data();
+  batch.rest = pool.rest.data();
+  batch.compliance = pool.compliance.data();
+  batch.compressionCompliance = pool.compressionCompliance.data();
+  batch.lambda = pool.lambda.data();
+  batch.positions = context.particles.p.data();
+  batch.splitInverseMass = pool.splitInverseMass.data();
+  batch.correction = pool.correction.data();
+  batch.inverseH2 = invH * invH;
+  batch.unilateral = std::is_same_v<Kernel, TetherKernel>;
+  batch.relaxation = factors.relaxation;
+  batch.step = factors.step;
+  batch.carry = factors.carry;
+  return batch;
 }
 }  // namespace sweep_detail
 
@@ -306,59 +357,25 @@ void solveJacobi(Pool& pool, const SweepContext& context, JacobiPath path = Jaco
   // Blocks of kDistanceBatchSize constraints from constraint 0, whatever the partitioning: which
   // constraints take the batched path, and hence the rounding, never depends on the thread count.
   const std::size_t blocks = (pool.size() + kDistanceBatchSize - 1) / kDistanceBatchSize;
+  // Undamped distance and angular constraints: eight at a time (distance_batch.h,
+  // angular_batch.h), in place of the scalar loop below, whose result they equal up to rounding.
+  constexpr bool kBatched = sweep_detail::kBatched<Kernel, Paths>;
   bool batched = false;
-  DistanceJacobiBatch batch;
-  if constexpr ((Paths & kDistanceBatch) && std::is_base_of_v<DistanceKernel, Kernel>) {
-    // Undamped distance constraints: eight at a time (distance_batch.h), in place of the scalar
-    // loop below, whose result they equal up to rounding.
+  JacobiBatch<sweep_detail::kMaxArity<Kernel>> batch;
+  if constexpr (kBatched) {
     batched = !context.objectRuns && context.optimizedPaths && pool.undamped &&
-              distanceBatchesAvailable();
-    batch.particles = pool.particles.data();
-    batch.rest = pool.rest.data();
-    batch.compliance = pool.compliance.data();
-    batch.compressionCompliance = pool.compressionCompliance.data();
-    batch.lambda = pool.lambda.data();
-    batch.positions = context.particles.p.data();
-    batch.splitInverseMass = pool.splitInverseMass.data();
-    batch.correction = pool.correction.data();
-    batch.inverseH2 = invH * invH;
-    batch.unilateral = std::is_same_v<Kernel, TetherKernel>;
-    batch.relaxation = factors.relaxation;
-    batch.step = factors.step;
-    batch.carry = factors.carry;
-  }
-  // The angular batch's parameters, of the pool's arity where one applies (a distance pool's
-  // unused copy has arity 2 and is never read).
-  AngularJacobiBatch<sweep_detail::kMaxArity<Kernel>> angular;
-  if constexpr ((Paths & kAngularBatch) && sweep_detail::kAngularKernel<Kernel>) {
-    // Undamped angular constraints: eight at a time (angular_batch.h), likewise.
-    static_assert(kAngularBatchSize == kDistanceBatchSize, "one block size for both batches");
-    batched =
-        !context.objectRuns && context.optimizedPaths && pool.undamped && angularBatchesAvailable();
-    angular.particles = pool.particles.data();
-    angular.rest = pool.rest.data();
-    angular.compliance = pool.compliance.data();
-    angular.compressionCompliance = pool.compressionCompliance.data();
-    angular.lambda = pool.lambda.data();
-    angular.positions = context.particles.p.data();
-    angular.splitInverseMass = pool.splitInverseMass.data();
-    angular.correction = pool.correction.data();
-    angular.inverseH2 = invH * invH;
-    angular.relaxation = factors.relaxation;
-    angular.step = factors.step;
-    angular.carry = factors.carry;
+              sweep_detail::batchesAvailable<Kernel>();
+    batch = sweep_detail::jacobiBatchOf<Kernel>(pool, context, factors, invH);
   }
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, blocks, sweep_detail::kGrain / kDistanceBatchSize),
       [&](const tbb::blocked_range<std::size_t>& r) {
         const std::size_t end = std::min(pool.size(), r.end() * kDistanceBatchSize);
         std::size_t c = r.begin() * kDistanceBatchSize;
-        if constexpr (sweep_detail::kAngularKernel<Kernel>) {
+        if constexpr (kBatched) {
           if (batched)
-            c = sweep_detail::projectAngularJacobiBatches(angular, static_cast<Index>(c),
-                                                          static_cast<Index>(end));
-        } else if (batched) {
-          c = projectDistanceJacobiBatches(batch, static_cast<Index>(c), static_cast<Index>(end));
+            c = sweep_detail::projectJacobiBatches(batch, static_cast<Index>(c),
+                                                   static_cast<Index>(end));
         }
         for (; c < end; ++c) sweep_detail::jacobiOne<Kernel>(pool, c, context, factors, invH);
       });
@@ -372,47 +389,15 @@ void solveColored(Pool& pool, const SweepContext& context) {
     if (sweep_detail::takesPart(pool, c, context))
       sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH);
   };
-  if constexpr ((Paths & kDistanceBatch) && std::is_base_of_v<DistanceKernel, Kernel>) {
-    // Undamped distance constraints stored in color order: eight at a time (distance_batch.h).
+  if constexpr (sweep_detail::kBatched<Kernel, Paths>) {
+    // Undamped distance and angular constraints stored in color order: eight at a time.
     if (!context.objectRuns && context.optimizedPaths && pool.undamped && pool.coloring.inPlace &&
-        distanceBatchesAvailable()) {
-      DistanceBatch batch;
-      batch.particles = pool.particles.data();
-      batch.rest = pool.rest.data();
-      batch.compliance = pool.compliance.data();
-      batch.compressionCompliance = pool.compressionCompliance.data();
-      batch.lambda = pool.lambda.data();
-      batch.positions = context.particles.p.data();
-      batch.inverseMass = context.particles.w.data();
-      batch.inverseH2 = invH * invH;
-      batch.unilateral = std::is_same_v<Kernel, TetherKernel>;
-      batch.endInverseMass = pool.endInverseMass.data();
+        sweep_detail::batchesAvailable<Kernel>()) {
+      const auto batch = sweep_detail::inPlaceBatchOf<Kernel>(pool, context, invH);
       forEachColorRange(
           pool.coloring, sweep_detail::kGrain, kDistanceBatchSize,
           [&](Index begin, Index end) {
-            for (Index c = projectDistanceBatches(batch, begin, end); c < end; ++c) projectOne(c);
-          },
-          projectOne);
-      return;
-    }
-  }
-  if constexpr ((Paths & kAngularBatch) && sweep_detail::kAngularKernel<Kernel>) {
-    // Undamped angular constraints stored in color order: eight at a time (angular_batch.h).
-    if (!context.objectRuns && context.optimizedPaths && pool.undamped && pool.coloring.inPlace &&
-        angularBatchesAvailable()) {
-      AngularBatch<Kernel::kArity> batch;
-      batch.particles = pool.particles.data();
-      batch.rest = pool.rest.data();
-      batch.compliance = pool.compliance.data();
-      batch.compressionCompliance = pool.compressionCompliance.data();
-      batch.lambda = pool.lambda.data();
-      batch.positions = context.particles.p.data();
-      batch.endInverseMass = pool.endInverseMass.data();
-      batch.inverseH2 = invH * invH;
-      forEachColorRange(
-          pool.coloring, sweep_detail::kGrain, kAngularBatchSize,
-          [&](Index begin, Index end) {
-            for (Index c = sweep_detail::projectAngularBatches(batch, begin, end); c < end; ++c)
+            for (Index c = sweep_detail::projectBatches(batch, begin, end); c < end; ++c)
               projectOne(c);
           },
           projectOne);
