@@ -8,6 +8,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 
 #include "components/constraint_graph.h"
 
@@ -53,7 +54,8 @@ void forEachColorRange(const ConstraintColoring& coloring, std::size_t grain, In
         tbb::blocked_range<Index>(0, batches, std::max<std::size_t>(1, grain / batch)),
         [&](const tbb::blocked_range<Index>& r) {
           projectRange(begin + r.begin() * batch, std::min(end, begin + r.end() * batch));
-        });
+        },
+        tbb::static_partitioner());
   }
 }
 

@@ -18,6 +18,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 
 #include "components/constraint_pool.h"
 #include "components/particles.h"
@@ -378,7 +379,8 @@ void solveJacobi(Pool& pool, const SweepContext& context, JacobiPath path = Jaco
                                                    static_cast<Index>(end));
         }
         for (; c < end; ++c) sweep_detail::jacobiOne<Kernel>(pool, c, context, factors, invH);
-      });
+      },
+      tbb::static_partitioner());
   gatherJacobiCorrections(pool.incidence, pool.correction, context.particles, Real(1));
 }
 

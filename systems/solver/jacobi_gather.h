@@ -11,6 +11,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 
 #include "components/constraint_graph.h"
 #include "components/particles.h"
@@ -21,16 +22,18 @@ inline void gatherJacobiCorrections(const ParticleIncidence& incidence,
                                     std::span<const Vec3> correction, ParticlePool& particles,
                                     Real scale) {
   const std::size_t n = incidence.offset.size() - 1;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 2048),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        const Index begin = incidence.offset[i], end = incidence.offset[i + 1];
-                        if (begin == end) continue;
-                        Vec3 sum = Vec3::Zero();
-                        for (Index s = begin; s < end; ++s) sum += correction[incidence.slot[s]];
-                        particles.p[i] += (scale / Real(end - begin)) * sum;
-                      }
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, 2048),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Index begin = incidence.offset[i], end = incidence.offset[i + 1];
+          if (begin == end) continue;
+          Vec3 sum = Vec3::Zero();
+          for (Index s = begin; s < end; ++s) sum += correction[incidence.slot[s]];
+          particles.p[i] += (scale / Real(end - begin)) * sum;
+        }
+      },
+      tbb::static_partitioner());
 }
 
 }  // namespace nucleon

@@ -5,6 +5,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 
 #include "systems/solver/distance_batch.h"
 
@@ -200,44 +201,48 @@ void solveDistanceJacobiVertex(const VertexSlotRows& rows, std::span<Real> move,
   const std::span<const Vec3> p = positions;
   // Pass 1: every particle's move from the same positions, into the history, and every slot's
   // multiplier step into its lane.
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 64),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, blocks, 64),
+      [&](const tbb::blocked_range<std::size_t>& r) {
 #if NUCLEON_DISTANCE_LANES
-                      if (distanceBatchesAvailable()) {
-                        moveBlocksAvx2(rows, p, move.data(), laneLambda.data(), step, accumulate,
-                                       r.begin(), r.end());
-                        return;
-                      }
+        if (distanceBatchesAvailable()) {
+          moveBlocksAvx2(rows, p, move.data(), laneLambda.data(), step, accumulate, r.begin(),
+                         r.end());
+          return;
+        }
 #endif
-                      for (std::size_t b = r.begin(); b != r.end(); ++b)
-                        moveBlockScalar(rows, b, p, move.data(), laneLambda.data(), step,
-                                        accumulate);
-                    });
+        for (std::size_t b = r.begin(); b != r.end(); ++b)
+          moveBlockScalar(rows, b, p, move.data(), laneLambda.data(), step, accumulate);
+      },
+      tbb::static_partitioner());
   // Pass 2: the moves.
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 256),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t b = r.begin(); b != r.end(); ++b) {
-                        const Real* history = move.data() + 3 * kLanes * b;
-                        const std::size_t count =
-                            std::min<std::size_t>(kLanes, positions.size() - kLanes * b);
-                        for (std::size_t lane = 0; lane < count; ++lane)
-                          positions[kLanes * b + lane] += Vec3(
-                              history[lane], history[kLanes + lane], history[2 * kLanes + lane]);
-                      }
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, blocks, 256),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t b = r.begin(); b != r.end(); ++b) {
+          const Real* history = move.data() + 3 * kLanes * b;
+          const std::size_t count = std::min<std::size_t>(kLanes, positions.size() - kLanes * b);
+          for (std::size_t lane = 0; lane < count; ++lane)
+            positions[kLanes * b + lane] +=
+                Vec3(history[lane], history[kLanes + lane], history[2 * kLanes + lane]);
+        }
+      },
+      tbb::static_partitioner());
 }
 
 void bookVertexLambda(const VertexSlotRows& rows, std::span<const Real> laneLambda,
                       std::span<Real> lambda) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, lambda.size(), 4096),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      std::size_t c = r.begin();
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, lambda.size(), 4096),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        std::size_t c = r.begin();
 #if NUCLEON_DISTANCE_LANES
-                      if (distanceBatchesAvailable())
-                        c = bookLambdaAvx2(rows, laneLambda.data(), lambda.data(), c, r.end());
+        if (distanceBatchesAvailable())
+          c = bookLambdaAvx2(rows, laneLambda.data(), lambda.data(), c, r.end());
 #endif
-                      for (; c < r.end(); ++c) lambda[c] += laneLambda[rows.lambdaLane[c]];
-                    });
+        for (; c < r.end(); ++c) lambda[c] += laneLambda[rows.lambdaLane[c]];
+      },
+      tbb::static_partitioner());
 }
 
 }  // namespace nucleon

@@ -12,6 +12,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 #include <tbb/task_arena.h>
 
 #include "systems/solver/distance_batch.h"
@@ -75,11 +76,13 @@ void sweepLevel(const HierarchyLevel& level, ParticlePool& particles) {
     // (they round differently), must not depend on how the loop is split, or the result would
     // depend on the thread count.
     const Index batches = (end - begin + kDistanceBatchSize - 1) / kDistanceBatchSize;
-    tbb::parallel_for(tbb::blocked_range<Index>(0, batches, kEdgeGrain / kDistanceBatchSize),
-                      [&](const tbb::blocked_range<Index>& r) {
-                        sweepEdges(level, particles, begin + r.begin() * kDistanceBatchSize,
-                                   std::min(end, begin + r.end() * kDistanceBatchSize));
-                      });
+    tbb::parallel_for(
+        tbb::blocked_range<Index>(0, batches, kEdgeGrain / kDistanceBatchSize),
+        [&](const tbb::blocked_range<Index>& r) {
+          sweepEdges(level, particles, begin + r.begin() * kDistanceBatchSize,
+                     std::min(end, begin + r.end() * kDistanceBatchSize));
+        },
+        tbb::static_partitioner());
   }
 }
 
@@ -166,10 +169,12 @@ void sweepLevelTethers(const HierarchyLevel& level, ParticlePool& particles) {
     for (std::size_t k = 0; k < level.particles.size(); ++k) project(k);
     return;
   }
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, level.particles.size(), kParticleGrain),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t k = r.begin(); k != r.end(); ++k) project(k);
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, level.particles.size(), kParticleGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k) project(k);
+      },
+      tbb::static_partitioner());
 }
 
 // p_f = q_f + Σ_j w_fj (p_j − q_j) for the fine particles of `level` (total displacement), except
@@ -180,20 +185,22 @@ void sweepLevelTethers(const HierarchyLevel& level, ParticlePool& particles) {
 // (iterations 4–16, 2 and 4 substeps), none with contact particles kept.
 void prolong(const HierarchyLevel& level, ParticlePool& particles, const std::vector<Vec3>& start,
              std::span<const Index> contactOffsets) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, level.fine.size(), kParticleGrain),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t k = r.begin(); k != r.end(); ++k) {
-                        const Index f = level.fine[k];
-                        const auto parents = level.parentsOf(k);
-                        const auto weights = level.weightsOf(k);
-                        Vec3 moved = Vec3::Zero();
-                        for (std::size_t n = 0; n < parents.size(); ++n)
-                          moved += weights[n] * (particles.p[parents[n]] - start[parents[n]]);
-                        const bool touching =
-                            !contactOffsets.empty() && contactOffsets[f + 1] > contactOffsets[f];
-                        if (!touching) particles.p[f] = start[f] + moved;
-                      }
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, level.fine.size(), kParticleGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k) {
+          const Index f = level.fine[k];
+          const auto parents = level.parentsOf(k);
+          const auto weights = level.weightsOf(k);
+          Vec3 moved = Vec3::Zero();
+          for (std::size_t n = 0; n < parents.size(); ++n)
+            moved += weights[n] * (particles.p[parents[n]] - start[parents[n]]);
+          const bool touching =
+              !contactOffsets.empty() && contactOffsets[f + 1] > contactOffsets[f];
+          if (!touching) particles.p[f] = start[f] + moved;
+        }
+      },
+      tbb::static_partitioner());
 }
 
 }  // namespace
@@ -209,10 +216,12 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
   for (const ObjectHierarchy& hierarchy : hierarchies.objects) {
     if (!cascades(hierarchy, objects)) continue;
     const Index first = hierarchy.firstParticle, end = first + hierarchy.particleCount;
-    tbb::parallel_for(tbb::blocked_range<Index>(first, end, kParticleGrain),
-                      [&](const tbb::blocked_range<Index>& r) {
-                        for (Index i = r.begin(); i != r.end(); ++i) start[i] = particles.p[i];
-                      });
+    tbb::parallel_for(
+        tbb::blocked_range<Index>(first, end, kParticleGrain),
+        [&](const tbb::blocked_range<Index>& r) {
+          for (Index i = r.begin(); i != r.end(); ++i) start[i] = particles.p[i];
+        },
+        tbb::static_partitioner());
     for (std::size_t l = hierarchy.levels.size() - 1; l >= 1; --l) {
       const HierarchyLevel& level = hierarchy.levels[l];
       const int sweeps = sweepsOfLevel(sweepsPerLevel, l);

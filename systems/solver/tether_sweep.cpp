@@ -6,6 +6,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 
 #include "systems/solver/distance_batch.h"
 #include "systems/solver/tether_projection.h"
@@ -291,20 +292,21 @@ void solveTethers(SolverKind kind, TetherConstraints& pool, const SweepContext& 
   // Blocks of eight ranks from rank 0, whatever the thread count: which vertices go eight at a
   // time, and hence the rounding, never depends on the partitioning.
   const Index blocks = (ranks + kBatch - 1) / kBatch;
-  tbb::parallel_for(tbb::blocked_range<Index>(0, blocks, kBlocksPerTask),
-                    [&](const tbb::blocked_range<Index>& range) {
-                      for (Index b = range.begin(); b != range.end(); ++b) {
-                        const Index a = b * kBatch;
+  tbb::parallel_for(
+      tbb::blocked_range<Index>(0, blocks, kBlocksPerTask),
+      [&](const tbb::blocked_range<Index>& range) {
+        for (Index b = range.begin(); b != range.end(); ++b) {
+          const Index a = b * kBatch;
 #if NUCLEON_DISTANCE_LANES
-                        if (batched && a + kBatch <= ranks && fullBatch(pool, a, w)) {
-                          projectEight(pool, a, p, layerCount);
-                          continue;
-                        }
+          if (batched && a + kBatch <= ranks && fullBatch(pool, a, w)) {
+            projectEight(pool, a, p, layerCount);
+            continue;
+          }
 #endif
-                        for (Index r = a; r < std::min(ranks, a + kBatch); ++r)
-                          projectVertex(pool, r, p, w);
-                      }
-                    });
+          for (Index r = a; r < std::min(ranks, a + kBatch); ++r) projectVertex(pool, r, p, w);
+        }
+      },
+      tbb::static_partitioner());
   (void)batched;
   (void)layerCount;
 }
