@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "nucleon/lanes.h"
+
 #include "engine/app/cli.h"
 
 namespace nucleon {
@@ -73,6 +75,39 @@ TEST(BenchCommand, RejectsBadInput) {
   EXPECT_EQ(runCommandLine({"bench", "cloth_hang", "--solver", "newton"}, out, err), 2);
   EXPECT_EQ(runCommandLine({"bench", "cloth_hang", "--csv", "/no/such/folder/x.csv"}, out, err), 2);
   EXPECT_NE(err.str().find("--solver"), std::string::npos);
+  EXPECT_EQ(runCommandLine({"bench", "cloth_hang", "--lanes", "sse4"}, out, err), 2);
+  EXPECT_NE(err.str().find("--lanes"), std::string::npos);
+}
+
+// Every lane set the CPU runs, in one run: one row each, with the set named; the sets give the
+// same state (nucleon/lanes.h), so every row's hash equals the first's.
+TEST(BenchCommand, LaneSetsGiveOneRowEachAndTheSameHash) {
+  std::vector<std::string> sets = {"avx2", "avx512"};
+  sets.resize(static_cast<std::size_t>(bestLaneIsa()));  // the sets this CPU runs
+  if (sets.empty()) GTEST_SKIP() << "no batched kernels in this build or CPU";
+  std::string list;
+  for (const std::string& set : sets) list += (list.empty() ? "" : ",") + set;
+  const std::string csv =
+      (std::filesystem::temp_directory_path() / "nucleon_bench_lanes_test.csv").string();
+  std::ostringstream out, err;
+  const std::string scene = std::string(NUCLEON_ASSETS_DIR) + "/scenes/cloth_hang.json";
+  ASSERT_EQ(runCommandLine({"bench", scene, "--threads", "2", "--solver", "colored-gs", "--lanes",
+                            list, "--steps", "4", "--warmup", "1", "--repeats", "1", "--csv", csv},
+                           out, err),
+            0)
+      << err.str();
+  const std::vector<std::string> lines = readLines(csv);
+  ASSERT_EQ(lines.size(), sets.size() + 1);
+  const std::vector<std::string> header = split(lines[0]);
+  const std::size_t lanes = column(header, "lanes"), sameHash = column(header, "same_hash");
+  for (std::size_t i = 0; i < sets.size(); ++i) {
+    const std::vector<std::string> row = split(lines[i + 1]);
+    ASSERT_EQ(row.size(), header.size()) << lines[i + 1];
+    EXPECT_EQ(row[lanes], sets[i]);
+    EXPECT_EQ(row[sameHash], "1") << lines[i + 1];
+  }
+  EXPECT_EQ(laneIsa(), bestLaneIsa());  // the bench leaves the best set selected
+  std::filesystem::remove(csv);
 }
 
 }  // namespace

@@ -4,9 +4,11 @@
 
 #include "systems/solver/distance_batch.h"
 #include "systems/solver/distance_lanes.h"
+#include "systems/solver/lane_kernels.h"
 #include "systems/solver/point_lanes.h"
 
-namespace nucleon {
+// Compiled once per instruction set, like distance_batch.cpp (nucleon/lanes.h).
+namespace nucleon::NUCLEON_LANE_ISA {
 
 #if NUCLEON_DISTANCE_LANES
 
@@ -14,7 +16,7 @@ static_assert(std::is_same_v<Real, float>, "the batched angular path is float-on
 
 namespace {
 
-#define NUCLEON_LANES [[gnu::target("avx2,fma"), gnu::always_inline]] inline
+#define NUCLEON_LANES [[gnu::target(NUCLEON_LANE_TARGET), gnu::always_inline]] inline
 
 using Lane3 = point_lanes::Lanes3;
 
@@ -225,8 +227,8 @@ NUCLEON_LANES void loadMasses(const std::array<Real, N>* endInverseMass, Index k
 }
 
 template <class Lanes>
-[[gnu::target("avx2,fma")]] Index projectAvx2(const AngularBatch<Lanes::kArity>& b, Index begin,
-                                              Index end) {
+[[gnu::target(NUCLEON_LANE_TARGET)]] Index projectInPlace(const AngularBatch<Lanes::kArity>& b,
+                                                          Index begin, Index end) {
   constexpr int n = Lanes::kArity;
   const __m256 inverseH2 = _mm256_set1_ps(b.inverseH2), zero = _mm256_setzero_ps();
   Index k = begin;
@@ -258,8 +260,8 @@ template <class Lanes>
 }
 
 template <class Lanes>
-[[gnu::target("avx2,fma")]] Index projectJacobiAvx2(const AngularJacobiBatch<Lanes::kArity>& b,
-                                                    Index begin, Index end) {
+[[gnu::target(NUCLEON_LANE_TARGET)]] Index projectJacobi(const AngularJacobiBatch<Lanes::kArity>& b,
+                                                         Index begin, Index end) {
   constexpr int n = Lanes::kArity;
   const __m256 zero = _mm256_setzero_ps();
   const __m256 inverseH2 = _mm256_set1_ps(b.inverseH2);
@@ -314,48 +316,68 @@ template <class Lanes>
 
 }  // namespace
 
-bool angularBatchesAvailable() {
-  return distanceBatchesAvailable();  // the same instructions and the same float state
+Index projectHingeBatches(const InPlaceBatch<4>& batch, Index begin, Index end) {
+  return projectInPlace<HingeLanes>(batch, begin, end);
 }
 
-Index projectHingeBatches(const AngularBatch<4>& batch, Index begin, Index end) {
-  return angularBatchesAvailable() ? projectAvx2<HingeLanes>(batch, begin, end) : begin;
+Index projectHingeJacobiBatches(const JacobiBatch<4>& batch, Index begin, Index end) {
+  return projectJacobi<HingeLanes>(batch, begin, end);
 }
 
-Index projectHingeJacobiBatches(const AngularJacobiBatch<4>& batch, Index begin, Index end) {
-  return angularBatchesAvailable() ? projectJacobiAvx2<HingeLanes>(batch, begin, end) : begin;
+Index projectAngleBatches(const InPlaceBatch<3>& batch, Index begin, Index end) {
+  return projectInPlace<AngleLanesKernel>(batch, begin, end);
 }
 
-Index projectAngleBatches(const AngularBatch<3>& batch, Index begin, Index end) {
-  return angularBatchesAvailable() ? projectAvx2<AngleLanesKernel>(batch, begin, end) : begin;
-}
-
-Index projectAngleJacobiBatches(const AngularJacobiBatch<3>& batch, Index begin, Index end) {
-  return angularBatchesAvailable() ? projectJacobiAvx2<AngleLanesKernel>(batch, begin, end) : begin;
+Index projectAngleJacobiBatches(const JacobiBatch<3>& batch, Index begin, Index end) {
+  return projectJacobi<AngleLanesKernel>(batch, begin, end);
 }
 
 #else
 
-bool angularBatchesAvailable() {
-  return false;
-}
-
-Index projectHingeBatches(const AngularBatch<4>&, Index begin, Index) {
+Index projectHingeBatches(const InPlaceBatch<4>&, Index begin, Index) {
   return begin;
 }
 
-Index projectHingeJacobiBatches(const AngularJacobiBatch<4>&, Index begin, Index) {
+Index projectHingeJacobiBatches(const JacobiBatch<4>&, Index begin, Index) {
   return begin;
 }
 
-Index projectAngleBatches(const AngularBatch<3>&, Index begin, Index) {
+Index projectAngleBatches(const InPlaceBatch<3>&, Index begin, Index) {
   return begin;
 }
 
-Index projectAngleJacobiBatches(const AngularJacobiBatch<3>&, Index begin, Index) {
+Index projectAngleJacobiBatches(const JacobiBatch<3>&, Index begin, Index) {
   return begin;
 }
 
 #endif
 
+}  // namespace nucleon::NUCLEON_LANE_ISA
+
+#if !defined(NUCLEON_LANES_AVX512)
+
+namespace nucleon {
+
+bool angularBatchesAvailable() {
+  return distanceBatchesAvailable();  // the same instructions and the same float state
+}
+
+Index projectHingeBatches(const AngularBatch<4>& batch, Index begin, Index end) {
+  return NUCLEON_CALL_LANES(projectHingeBatches, begin, batch, begin, end);
+}
+
+Index projectHingeJacobiBatches(const AngularJacobiBatch<4>& batch, Index begin, Index end) {
+  return NUCLEON_CALL_LANES(projectHingeJacobiBatches, begin, batch, begin, end);
+}
+
+Index projectAngleBatches(const AngularBatch<3>& batch, Index begin, Index end) {
+  return NUCLEON_CALL_LANES(projectAngleBatches, begin, batch, begin, end);
+}
+
+Index projectAngleJacobiBatches(const AngularJacobiBatch<3>& batch, Index begin, Index end) {
+  return NUCLEON_CALL_LANES(projectAngleJacobiBatches, begin, batch, begin, end);
+}
+
 }  // namespace nucleon
+
+#endif

@@ -3,9 +3,12 @@
 #include <type_traits>
 
 #include "systems/solver/distance_lanes.h"
+#include "systems/solver/lane_kernels.h"
 #include "systems/solver/point_lanes.h"
 
-namespace nucleon {
+// This file is compiled once per instruction set (nucleon/lanes.h): its kernels go to the set's
+// namespace, and the entries of distance_batch.h, which pick a set, to the AVX2 compile.
+namespace nucleon::NUCLEON_LANE_ISA {
 
 #if NUCLEON_DISTANCE_LANES
 
@@ -16,7 +19,8 @@ namespace {
 
 using distance_lanes::multiplierScale;
 
-[[gnu::target("avx2,fma")]] Index projectAvx2(const DistanceBatch& b, Index begin, Index end) {
+[[gnu::target(NUCLEON_LANE_TARGET)]] Index projectInPlace(const DistanceBatch& b, Index begin,
+                                                          Index end) {
   const __m256 zero = _mm256_setzero_ps();
   const __m256 inverseH2 = _mm256_set1_ps(b.inverseH2);
   // The pairs (a0 b0 a1 b1 a2 b2 a3 b3) become (a0 a1 a2 a3 b0 b1 b2 b3).
@@ -76,10 +80,10 @@ using distance_lanes::multiplierScale;
   return k;
 }
 
-// The Jacobi batch: the arithmetic of projectAvx2 with split inverse masses, the result written
+// The Jacobi batch: the arithmetic of projectInPlace with split inverse masses, the result written
 // to the constraints' slots. Positions are only read, so constraints may share particles.
-[[gnu::target("avx2,fma")]] Index projectJacobiAvx2(const DistanceJacobiBatch& b, Index begin,
-                                                    Index end) {
+[[gnu::target(NUCLEON_LANE_TARGET)]] Index projectJacobi(const DistanceJacobiBatch& b, Index begin,
+                                                         Index end) {
   const __m256 zero = _mm256_setzero_ps();
   const __m256 inverseH2 = _mm256_set1_ps(b.inverseH2);
   const __m256 relaxation = _mm256_set1_ps(b.relaxation), step = _mm256_set1_ps(b.step);
@@ -139,40 +143,46 @@ using distance_lanes::multiplierScale;
   return k;
 }
 
-bool cpuHasAvx2Fma() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-}
-
 }  // namespace
 
-bool distanceBatchesAvailable() {
-  static const bool available = cpuHasAvx2Fma();  // a property of the CPU, read once
-  return available;
+Index projectDistanceBatches(const InPlaceBatch<2>& batch, Index begin, Index end) {
+  return projectInPlace(batch, begin, end);
 }
 
-Index projectDistanceBatches(const DistanceBatch& batch, Index begin, Index end) {
-  return distanceBatchesAvailable() ? projectAvx2(batch, begin, end) : begin;
-}
-
-Index projectDistanceJacobiBatches(const DistanceJacobiBatch& batch, Index begin, Index end) {
-  return distanceBatchesAvailable() ? projectJacobiAvx2(batch, begin, end) : begin;
+Index projectDistanceJacobiBatches(const JacobiBatch<2>& batch, Index begin, Index end) {
+  return projectJacobi(batch, begin, end);
 }
 
 #else
 
-bool distanceBatchesAvailable() {
-  return false;
-}
-
-Index projectDistanceBatches(const DistanceBatch&, Index begin, Index) {
+Index projectDistanceBatches(const InPlaceBatch<2>&, Index begin, Index) {
   return begin;
 }
 
-Index projectDistanceJacobiBatches(const DistanceJacobiBatch&, Index begin, Index) {
+Index projectDistanceJacobiBatches(const JacobiBatch<2>&, Index begin, Index) {
   return begin;
 }
 
 #endif
 
+}  // namespace nucleon::NUCLEON_LANE_ISA
+
+#if !defined(NUCLEON_LANES_AVX512)
+
+namespace nucleon {
+
+bool distanceBatchesAvailable() {
+  return laneIsa() != LaneIsa::None;
+}
+
+Index projectDistanceBatches(const DistanceBatch& batch, Index begin, Index end) {
+  return NUCLEON_CALL_LANES(projectDistanceBatches, begin, batch, begin, end);
+}
+
+Index projectDistanceJacobiBatches(const DistanceJacobiBatch& batch, Index begin, Index end) {
+  return NUCLEON_CALL_LANES(projectDistanceJacobiBatches, begin, batch, begin, end);
+}
+
 }  // namespace nucleon
+
+#endif
