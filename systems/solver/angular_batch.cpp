@@ -298,7 +298,7 @@ template <class Lanes>
         // Adaptive restart per slot, as in the scalar path (constraint_sweeps.h): history that
         // opposes the new move is dropped.
         __m128 point[8];
-        for (int j = 0; j < 8; ++j) point[j] = point_lanes::loadPoint(slot[n * j + c]);
+        for (int j = 0; j < 8; ++j) point[j] = point_lanes::loadSlot(slot[n * j + c]);
         const Lane3 old = point_lanes::transposeRows(point);
         const __m256 carried = _mm256_and_ps(keep, _mm256_cmp_ps(dot(u, old), zero, _CMP_GE_OQ));
         u = {_mm256_fmadd_ps(carried, old.x, u.x), _mm256_fmadd_ps(carried, old.y, u.y),
@@ -306,7 +306,7 @@ template <class Lanes>
       }
       __m128 row[8];
       point_lanes::transposeLanes(u, row);
-      for (int j = 0; j < 8; ++j) point_lanes::storePoint(slot[n * j + c], row[j]);
+      for (int j = 0; j < 8; ++j) point_lanes::storeSlot(slot[n * j + c], row[j]);
     }
   }
   return k;
