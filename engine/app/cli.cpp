@@ -40,6 +40,7 @@ const char* kUsage =
     "                              [--render FILE.png] [--quiet]\n"
     "       nucleon bench SCENE|NAME ... [--threads 1,2,..] [--solver a,b] [--iterations K]\n"
     "                              [--steps N] [--warmup W] [--repeats R] [--csv FILE]\n"
+    "                              [--lanes avx2,avx512]\n"
     "       nucleon scenes\n"
     "       nucleon ccd QUERIES.txt [--answers FILE] [--thickness D]\n"
     "       nucleon --help | nucleon CMD --help\n";
