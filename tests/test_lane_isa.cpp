@@ -4,6 +4,7 @@
 // Jacobi sweep, the multigrid cascade); a set the CPU lacks is refused; the scalar paths ('none')
 // round differently but solve the same constraints.
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -27,8 +28,10 @@ struct Outcome {
   double meanStrain = 0;
 };
 
-// A 48² cloth with shear and bending, pinned at two corners, 20 steps of `settings`.
-Outcome hangingCloth(const SolverSettings& settings) {
+// A 48² cloth with shear and bending, pinned at two corners, 20 steps of `settings`;
+// `beforeStep(i)`, if given, runs before step i.
+Outcome hangingCloth(const SolverSettings& settings,
+                     const std::function<void(int)>& beforeStep = nullptr) {
   GridSpec spec;
   spec.resolution = {48, 48};
   ObjectDef cloth = gridCloth(spec);
@@ -38,7 +41,10 @@ Outcome hangingCloth(const SolverSettings& settings) {
   world.setSolver(settings);
   world.setThreads(2);
   world.addCloth(cloth);
-  for (int i = 0; i < 20; ++i) world.step(1.0 / 60);
+  for (int i = 0; i < 20; ++i) {
+    if (beforeStep) beforeStep(i);
+    world.step(1.0 / 60);
+  }
   return {world.stateHash(), world.measure().meanStrain};
 }
 
@@ -92,6 +98,23 @@ TEST(LaneIsa, Avx2AndAvx512GiveTheSameBits) {
     EXPECT_EQ(avx2.hash, avx512.hash)
         << toString(settings.kind) << " / " << toString(settings.smoother);
   }
+}
+
+// A switch between the two sets between steps (or, by the same argument, between sweeps) leaves
+// the state as if one set had run throughout.
+TEST(LaneIsa, SwitchingSetsBetweenStepsKeepsTheState) {
+  if (bestLaneIsa() != LaneIsa::Avx512) GTEST_SKIP() << "this CPU has no AVX-512 (F and VL)";
+  BestLanesAfterwards restore;
+  SolverSettings settings;
+  settings.kind = SolverKind::Multigrid;
+  settings.smoother = SolverKind::Jacobi;
+  settings.iterations = 8;
+  ASSERT_TRUE(selectLaneIsa(LaneIsa::Avx512));
+  const Outcome throughout = hangingCloth(settings);
+  const Outcome alternating = hangingCloth(
+      settings, [](int step) { selectLaneIsa(step % 2 == 0 ? LaneIsa::Avx2 : LaneIsa::Avx512); });
+  EXPECT_EQ(alternating.hash, throughout.hash);
+  EXPECT_EQ(laneIsa(), LaneIsa::Avx512);  // the last step's set: the switches took effect
 }
 
 // The scalar paths solve the same constraints: after 20 steps the mean strain agrees within 2%

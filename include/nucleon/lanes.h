@@ -22,8 +22,10 @@ LaneIsa laneIsa();
 // The best set this build and CPU can run.
 LaneIsa bestLaneIsa();
 
-// Makes the batched kernels use `isa` from the next sweep on; false, and no change, where this
-// build or CPU cannot run it. A process-wide switch: not to be called while a world steps.
+// Makes the batched kernels use `isa` from their next call on; false, and no change, where this
+// build or CPU cannot run it. A process-wide switch. Switching between the two sets while a
+// world steps changes nothing in its state; switching to or from None changes the rounding from
+// then on (the scalar paths round differently), so a benchmark or test selects between steps.
 bool selectLaneIsa(LaneIsa isa);
 
 // "none", "avx2", "avx512": the names the command line and the benchmark records use.

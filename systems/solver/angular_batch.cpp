@@ -363,19 +363,19 @@ bool angularBatchesAvailable() {
 }
 
 Index projectHingeBatches(const AngularBatch<4>& batch, Index begin, Index end) {
-  return NUCLEON_CALL_LANES(projectHingeBatches, begin, batch, begin, end);
+  return NUCLEON_CALL_LANES(laneIsa(), projectHingeBatches, begin, batch, begin, end);
 }
 
 Index projectHingeJacobiBatches(const AngularJacobiBatch<4>& batch, Index begin, Index end) {
-  return NUCLEON_CALL_LANES(projectHingeJacobiBatches, begin, batch, begin, end);
+  return NUCLEON_CALL_LANES(laneIsa(), projectHingeJacobiBatches, begin, batch, begin, end);
 }
 
 Index projectAngleBatches(const AngularBatch<3>& batch, Index begin, Index end) {
-  return NUCLEON_CALL_LANES(projectAngleBatches, begin, batch, begin, end);
+  return NUCLEON_CALL_LANES(laneIsa(), projectAngleBatches, begin, batch, begin, end);
 }
 
 Index projectAngleJacobiBatches(const AngularJacobiBatch<3>& batch, Index begin, Index end) {
-  return NUCLEON_CALL_LANES(projectAngleJacobiBatches, begin, batch, begin, end);
+  return NUCLEON_CALL_LANES(laneIsa(), projectAngleJacobiBatches, begin, batch, begin, end);
 }
 
 }  // namespace nucleon

@@ -176,11 +176,11 @@ bool distanceBatchesAvailable() {
 }
 
 Index projectDistanceBatches(const DistanceBatch& batch, Index begin, Index end) {
-  return NUCLEON_CALL_LANES(projectDistanceBatches, begin, batch, begin, end);
+  return NUCLEON_CALL_LANES(laneIsa(), projectDistanceBatches, begin, batch, begin, end);
 }
 
 Index projectDistanceJacobiBatches(const DistanceJacobiBatch& batch, Index begin, Index end) {
-  return NUCLEON_CALL_LANES(projectDistanceJacobiBatches, begin, batch, begin, end);
+  return NUCLEON_CALL_LANES(laneIsa(), projectDistanceJacobiBatches, begin, batch, begin, end);
 }
 
 }  // namespace nucleon

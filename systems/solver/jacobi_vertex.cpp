@@ -132,14 +132,15 @@ void solveDistanceJacobiVertex(const VertexSlotRows& rows, std::span<Real> move,
                                const VertexJacobiStep& step, bool accumulate) {
   const std::size_t blocks = rows.blockCount();
   const std::span<const Vec3> p = positions;
+  const LaneIsa isa = laneIsa();  // one set for the whole sweep
   // Pass 1: every particle's move from the same positions, into the history, and every slot's
   // multiplier step into its lane.
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, blocks, 64),
       [&](const tbb::blocked_range<std::size_t>& r) {
-        if (distanceBatchesAvailable()) {
-          NUCLEON_CALL_LANES(moveVertexBlocks, (void)0, rows, p, move.data(), laneLambda.data(),
-                             step, accumulate, r.begin(), r.end());
+        if (isa != LaneIsa::None) {
+          NUCLEON_CALL_LANES(isa, moveVertexBlocks, (void)0, rows, p, move.data(),
+                             laneLambda.data(), step, accumulate, r.begin(), r.end());
           return;
         }
         for (std::size_t b = r.begin(); b != r.end(); ++b)

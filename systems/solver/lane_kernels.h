@@ -8,10 +8,10 @@
 #include <span>
 
 #include "components/constraint_graph.h"
+#include "nucleon/lanes.h"
 #include "nucleon/types.h"
 #include "systems/solver/batch_parameters.h"
 #include "systems/solver/jacobi_vertex.h"
-#include "nucleon/lanes.h"
 
 // Each set's entries: the batches project as projectDistanceBatches (distance_batch.h) and the
 // like; moveVertexBlocks is the vertex sweep's first pass for blocks [begin, end).
@@ -36,8 +36,16 @@ NUCLEON_LANE_KERNEL_ENTRIES
 
 #undef NUCLEON_LANE_KERNEL_ENTRIES
 
-// `function(arguments…)` of the set in use; `none` where no set runs (the caller's scalar path).
-#define NUCLEON_CALL_LANES(function, none, ...)                                                  \
-  (::nucleon::laneIsa() == ::nucleon::LaneIsa::Avx512 ? ::nucleon::avx512::function(__VA_ARGS__) \
-   : ::nucleon::laneIsa() == ::nucleon::LaneIsa::Avx2 ? ::nucleon::avx2::function(__VA_ARGS__)   \
-                                                      : (none))
+// `function(arguments…)` of the set `isa` (read once, so that a call never mixes two sets);
+// `none` where no set runs (the caller's scalar path then does the work).
+#define NUCLEON_CALL_LANES(isa, function, none, ...)     \
+  [&] {                                                  \
+    switch (isa) {                                       \
+      case ::nucleon::LaneIsa::Avx512:                   \
+        return ::nucleon::avx512::function(__VA_ARGS__); \
+      case ::nucleon::LaneIsa::Avx2:                     \
+        return ::nucleon::avx2::function(__VA_ARGS__);   \
+      default:                                           \
+        return none;                                     \
+    }                                                    \
+  }()
