@@ -66,15 +66,11 @@ void expectBatchMatchesScalar(bool unilateral, bool loadedMasses = false) {
   std::vector<std::array<Real, 2>> endInverseMass;
   for (const auto& [a, b] : batched.pool.particles)
     endInverseMass.push_back({batched.particles.w[a], batched.particles.w[b]});
-  DistanceBatch batch{batched.pool.particles.data(),
-                      batched.pool.rest.data(),
-                      batched.pool.compliance.data(),
-                      batched.pool.compressionCompliance.data(),
-                      batched.pool.lambda.data(),
-                      batched.particles.p.data(),
-                      batched.particles.w.data(),
-                      invH * invH,
-                      unilateral};
+  DistanceBatch batch{{batched.pool.particles.data(), batched.pool.rest.data(),
+                       batched.pool.compliance.data(), batched.pool.compressionCompliance.data(),
+                       batched.pool.lambda.data(), invH * invH, unilateral}};
+  batch.positions = batched.particles.p.data();
+  batch.inverseMass = batched.particles.w.data();
   if (loadedMasses) batch.endInverseMass = endInverseMass.data();
   const Index size = static_cast<Index>(batched.pool.size());
   const Index left = projectDistanceBatches(batch, 0, size);

@@ -332,24 +332,6 @@ Index projectAngleJacobiBatches(const JacobiBatch<3>& batch, Index begin, Index 
   return projectJacobi<AngleLanesKernel>(batch, begin, end);
 }
 
-#else
-
-Index projectHingeBatches(const InPlaceBatch<4>&, Index begin, Index) {
-  return begin;
-}
-
-Index projectHingeJacobiBatches(const JacobiBatch<4>&, Index begin, Index) {
-  return begin;
-}
-
-Index projectAngleBatches(const InPlaceBatch<3>&, Index begin, Index) {
-  return begin;
-}
-
-Index projectAngleJacobiBatches(const JacobiBatch<3>&, Index begin, Index) {
-  return begin;
-}
-
 #endif
 
 }  // namespace nucleon::NUCLEON_LANE_ISA

@@ -10,22 +10,28 @@
 
 namespace nucleon {
 
-// In place: the constraints of a range share no free particle, so each batch gathers its
-// particles, projects all eight and writes the free ones back (pins, w = 0, are read but never
-// written).
+// The pool's columns both forms read: its constraints' particles, rest values, compliances and
+// multipliers.
 template <std::size_t N>
-struct InPlaceBatch {
+struct BatchColumns {
   const std::array<Index, N>* particles = nullptr;
   const Real* rest = nullptr;
-  // Null compliances and multipliers (distance batches only): hard constraints without
+  // Null compliances and multipliers (in place, distance batches only): hard constraints without
   // multipliers, the plain PBD step Δx_a = −w_a C n / (w_a + w_b) (the cascade's coarse limits).
   const Real* compliance = nullptr;
   const Real* compressionCompliance = nullptr;
   Real* lambda = nullptr;
+  Real inverseH2 = 0;       // 1/h²
+  bool unilateral = false;  // tethers: only C > 0 is corrected (distance batches only)
+};
+
+// In place: the constraints of a range share no free particle, so each batch gathers its
+// particles, projects all eight and writes the free ones back (pins, w = 0, are read but never
+// written).
+template <std::size_t N>
+struct InPlaceBatch : BatchColumns<N> {
   Vec3* positions = nullptr;
   const Real* inverseMass = nullptr;  // per particle (distance batches without endInverseMass)
-  Real inverseH2 = 0;                 // 1/h²
-  bool unilateral = false;            // tethers: only C > 0 is corrected (distance batches only)
   // The inverse masses of each constraint's particles in pool order (the pool's endInverseMass):
   // contiguous loads instead of one per particle. The angular batches need it.
   const std::array<Real, N>* endInverseMass = nullptr;
@@ -39,20 +45,13 @@ struct InPlaceBatch {
 //   opposes the new step restarts),  u = γ Δx otherwise,
 // and λ += (ω γ or γ) Δλ alike. Constraints may share particles: nothing is written to them.
 template <std::size_t N>
-struct JacobiBatch {
-  const std::array<Index, N>* particles = nullptr;
-  const Real* rest = nullptr;
-  const Real* compliance = nullptr;
-  const Real* compressionCompliance = nullptr;
-  Real* lambda = nullptr;
+struct JacobiBatch : BatchColumns<N> {
   const Vec3* positions = nullptr;
   const Real* splitInverseMass = nullptr;  // w_i times the family's constraint count on i
   Vec3* correction = nullptr;
-  Real inverseH2 = 0;       // 1/h²
-  bool unilateral = false;  // tethers: only C > 0 is corrected (distance batches only)
-  Real relaxation = 1;      // γ
-  Real step = 1;            // ω γ
-  Real carry = 0;           // ω − 1 (0: plain sweep, the old slots are not read)
+  Real relaxation = 1;  // γ
+  Real step = 1;        // ω γ
+  Real carry = 0;       // ω − 1 (0: plain sweep, the old slots are not read)
 };
 
 }  // namespace nucleon

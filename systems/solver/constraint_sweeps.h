@@ -266,17 +266,21 @@ inline Index projectJacobiBatches(const JacobiBatch<4>& b, Index begin, Index en
 
 // A pool's batch records (batch_parameters.h).
 template <class Kernel, class Pool>
+BatchColumns<Kernel::kArity> columnsOf(Pool& pool, Real invH) {
+  return {pool.particles.data(),
+          pool.rest.data(),
+          pool.compliance.data(),
+          pool.compressionCompliance.data(),
+          pool.lambda.data(),
+          invH * invH,
+          std::is_same_v<Kernel, TetherKernel>};
+}
+
+template <class Kernel, class Pool>
 InPlaceBatch<Kernel::kArity> inPlaceBatchOf(Pool& pool, const SweepContext& context, Real invH) {
-  InPlaceBatch<Kernel::kArity> batch;
-  batch.particles = pool.particles.data();
-  batch.rest = pool.rest.data();
-  batch.compliance = pool.compliance.data();
-  batch.compressionCompliance = pool.compressionCompliance.data();
-  batch.lambda = pool.lambda.data();
+  InPlaceBatch<Kernel::kArity> batch{columnsOf<Kernel>(pool, invH)};
   batch.positions = context.particles.p.data();
   batch.inverseMass = context.particles.w.data();
-  batch.inverseH2 = invH * invH;
-  batch.unilateral = std::is_same_v<Kernel, TetherKernel>;
   batch.endInverseMass = pool.endInverseMass.data();
   return batch;
 }
@@ -284,17 +288,10 @@ InPlaceBatch<Kernel::kArity> inPlaceBatchOf(Pool& pool, const SweepContext& cont
 template <class Kernel, class Pool>
 JacobiBatch<Kernel::kArity> jacobiBatchOf(Pool& pool, const SweepContext& context,
                                           const JacobiFactors& factors, Real invH) {
-  JacobiBatch<Kernel::kArity> batch;
-  batch.particles = pool.particles.data();
-  batch.rest = pool.rest.data();
-  batch.compliance = pool.compliance.data();
-  batch.compressionCompliance = pool.compressionCompliance.data();
-  batch.lambda = pool.lambda.data();
+  JacobiBatch<Kernel::kArity> batch{columnsOf<Kernel>(pool, invH)};
   batch.positions = context.particles.p.data();
   batch.splitInverseMass = pool.splitInverseMass.data();
   batch.correction = pool.correction.data();
-  batch.inverseH2 = invH * invH;
-  batch.unilateral = std::is_same_v<Kernel, TetherKernel>;
   batch.relaxation = factors.relaxation;
   batch.step = factors.step;
   batch.carry = factors.carry;

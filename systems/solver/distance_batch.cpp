@@ -153,16 +153,6 @@ Index projectDistanceJacobiBatches(const JacobiBatch<2>& batch, Index begin, Ind
   return projectJacobi(batch, begin, end);
 }
 
-#else
-
-Index projectDistanceBatches(const InPlaceBatch<2>&, Index begin, Index) {
-  return begin;
-}
-
-Index projectDistanceJacobiBatches(const JacobiBatch<2>&, Index begin, Index) {
-  return begin;
-}
-
 #endif
 
 }  // namespace nucleon::NUCLEON_LANE_ISA

@@ -91,11 +91,6 @@ void moveVertexBlocks(const VertexSlotRows& rows, std::span<const Vec3> position
   moveBlocks(rows, positions, move, laneLambda, step, accumulate, begin, end);
 }
 
-#else
-
-void moveVertexBlocks(const VertexSlotRows&, std::span<const Vec3>, Real*, Real*,
-                      const VertexJacobiStep&, bool, std::size_t, std::size_t) {}
-
 #endif
 
 }  // namespace nucleon::NUCLEON_LANE_ISA

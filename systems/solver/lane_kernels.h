@@ -11,6 +11,7 @@
 #include "nucleon/lanes.h"
 #include "nucleon/types.h"
 #include "systems/solver/batch_parameters.h"
+#include "systems/solver/distance_lanes.h"
 #include "systems/solver/jacobi_vertex.h"
 
 // Each set's entries: the batches project as projectDistanceBatches (distance_batch.h) and the
@@ -37,7 +38,9 @@ NUCLEON_LANE_KERNEL_ENTRIES
 #undef NUCLEON_LANE_KERNEL_ENTRIES
 
 // `function(arguments…)` of the set `isa` (read once, so that a call never mixes two sets);
-// `none` where no set runs (the caller's scalar path then does the work).
+// `none` where no set runs (the caller's scalar path then does the work). A build without lanes
+// (double state, or not x86-64) has no kernels to call: there it is always `none`.
+#if NUCLEON_DISTANCE_LANES
 #define NUCLEON_CALL_LANES(isa, function, none, ...)     \
   [&] {                                                  \
     switch (isa) {                                       \
@@ -49,3 +52,14 @@ NUCLEON_LANE_KERNEL_ENTRIES
         return none;                                     \
     }                                                    \
   }()
+#else
+namespace nucleon {
+template <class... Arguments>
+void ignoreLaneArguments(const Arguments&...) {}
+}  // namespace nucleon
+#define NUCLEON_CALL_LANES(isa, function, none, ...)  \
+  [&] {                                               \
+    ::nucleon::ignoreLaneArguments(isa, __VA_ARGS__); \
+    return none;                                      \
+  }()
+#endif

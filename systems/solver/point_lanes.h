@@ -41,7 +41,7 @@ struct Lanes3 {
 }
 
 // The same load in two accesses in every compile: for the Jacobi slots, which a batch writes in
-// a stream of twelve-byte records and a gather reads back. There the masked form measured 7–15%
+// a stream of twelve-byte records and a gather reads back. There the masked form measured 6–16%
 // slower on the 2-core AMD EPYC (the bend hinges' Jacobi sweep, BM_Sweep).
 [[gnu::target(NUCLEON_LANE_TARGET), gnu::always_inline]] inline __m128 loadSlot(const Vec3& slot) {
   double xy;
