@@ -105,6 +105,7 @@ struct PrimitiveContactPool {
     Vec3d angular = Vec3d::Zero();  // angular momentum of the motion about the centre (× h)
     Mat3d inertia = Mat3d::Zero();  // inertia tensor about the centre
     Mat3d rotation = Mat3d::Identity();
+    bool stopped = false;  // held where the substep began (momentum lost, counted)
   };
   std::vector<Index> zoneParent;
   std::vector<Index> zoneSlot;

@@ -18,9 +18,11 @@ d = json.load(open(sys.argv[1]))
 f, c = d["failures"], d["collisions"]
 print(f'{d["scene"]}: {"clean" if f["clean"] else "NOT CLEAN"}, {d["ms_per_step"]:.1f} ms/step, '
       f'frames with intersections {f["frames_with_intersections"]} (most {f["max_intersections"]}), '
-      f'overstretched frames {f["overstretched_frames"]}, worst frame max strain '
+      f'overstretched frames {f["overstretched_frames"]}, frames with particles inside colliders '
+      f'{f["frames_inside_colliders"]}, worst frame max strain '
       f'{f["worst_frame_max_strain"]:.3f}, end max strain {d["max_strain"]:.3f}, unresolved '
       f'{f["unresolved_crossing_pairs"]}, crossings {c["crossings_stopped"]}, carried '
-      f'{c["carried_particles"]} of {c["stopped_particles"]} held particles, state {d["state_hash"]}')
+      f'{c["carried_particles"]} of {c["stopped_particles"]} held particles, impact zones '
+      f'{c["impact_zones"]} ({c["stopped_impact_zones"]} stopped), state {d["state_hash"]}')
 PY
 done

@@ -62,6 +62,8 @@ TEST_P(EveryBundledScene, RunsWithoutRepairsOrNonFiniteValues) {
   // at any frame end (the exact checker). Scenes without self-collision (a hanging cloth may
   // fold through itself) are not held to it.
   EXPECT_EQ(j.at("collisions").at("unresolved_pairs").get<long long>(), 0);
+  // No free particle ends any frame behind the ground's or a sphere's surface.
+  EXPECT_EQ(j.at("failures").at("frames_inside_colliders").get<long long>(), 0);
   const std::vector<std::string> collisionScenes = {
       "bullet_cloth", "cloth_drop_sphere", "cloth_free_fall", "cloth_self",
       "cloth_twist",  "kinematic_spin",    "rope_pile"};

@@ -524,7 +524,7 @@ struct FailsafeCase {
     pairCount = pairs.size();
     PrimitiveContactPool contacts;
     measureStartDistances(contacts, pairs, primitives, particles);
-    return resolveCrossings(contacts, pairs, primitives, particles);
+    return resolveCrossings(contacts, pairs, primitives, ColliderPool{}, particles);
   }
 };
 

@@ -2,6 +2,7 @@
 // 1, 4 and 20 sweeps per substep: friction bounds a particle's whole tangential motion over the
 // substep by μ times the substep's normal correction, so neither the threshold nor the sliding
 // law may depend on how many rounds project the contact.
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -134,6 +135,76 @@ INSTANTIATE_TEST_SUITE_P(Backends, Friction,
                                          FrictionCase{SolverKind::ColoredGaussSeidel, 4},
                                          FrictionCase{SolverKind::ColoredGaussSeidel, 20}),
                          caseName);
+
+}  // namespace
+}  // namespace nucleon
+
+namespace nucleon {
+namespace {
+
+// Friction between two movable primitives acts after the last round of contacts: where a layer of
+// a pile slides down over the bottom one, it drags that one along, and into the ground it rests
+// on unless the collider contacts are projected after it. A 48×48 sheet, 0.9 m square, falls
+// onto the edge of a thin blade and its two halves strike the ground edge-first at about 3 m/s;
+// they buckle into layers pressed by self-contacts with friction 0.5. Every particle must end
+// every frame at least the ground's thickness above it (to float rounding at 3 mm: 1 µm), and the
+// run needs no repair. Without the last projection a frame ended with 57 particles up to 4.9 mm
+// inside the thickness (1.9 mm below the ground itself) and an edge at 2.2 times its length.
+TEST(PrimitiveFriction, NeverLeavesAParticleInsideTheGround) {
+  const std::string scene = R"({
+    "frames": 30, "fps": 60,
+    "ground": {"height": 0, "thickness": 0.003, "friction": 0.5},
+    "solver": {"type": "multigrid", "iterations": 10, "substeps": 2},
+    "objects": [
+      {"type": "collider", "name": "blade",
+       "shape": {"mesh": {"vertices": [[-0.004, 0.25, -0.6], [-0.004, 0.25, 0.6],
+                                       [-0.004, 0.45, -0.6], [-0.004, 0.45, 0.6],
+                                       [0.004, 0.25, -0.6], [0.004, 0.25, 0.6],
+                                       [0.004, 0.45, -0.6], [0.004, 0.45, 0.6]],
+                          "triangles": [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5],
+                                        [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6],
+                                        [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]}},
+       "material": {"thickness": 0.003, "friction": 0.5}},
+      {"type": "cloth", "name": "sheet",
+       "shape": {"grid": {"resolution": [48, 48], "size": [0.9, 0.9], "center": [0, 0.6, 0]}},
+       "material": {"mass": 0.3, "thickness": 0.005, "friction": 0.5, "self_collision": true}}]
+  })";
+  World world = buildWorld(parseScene(scene, "blade.json", "."));
+  const Real floor = world.ground().thickness - Real(1e-6);
+  Real lowest = 1;
+  for (int frame = 0; frame < 30; ++frame) {
+    world.step(1.0 / 60);
+    for (std::size_t i = 0; i < world.particleCount(); ++i)
+      if (world.inverseMasses()[i] > 0) lowest = std::min(lowest, world.positions()[i].y());
+    ASSERT_GE(lowest, floor) << "frame " << frame;
+  }
+  EXPECT_EQ(world.recoveries().total(), 0u);
+}
+
+// The measure behind the stats' `inside_colliders`: free particles behind a collider's surface
+// itself. Within the thickness layer is not inside (contacts hold particles there), a pinned
+// particle is not the solver's to keep out, and one behind the ground and a sphere counts once.
+TEST(PrimitiveFriction, MeasureCountsFreeParticlesBehindAColliderSurface) {
+  World world;
+  GroundPlane ground;
+  ground.enabled = true;
+  ground.thickness = Real(0.003);
+  world.setGround(ground);
+  SphereCollider sphere;
+  sphere.center = Vec3(2, 0, 0);
+  sphere.radius = Real(0.5);
+  world.addSphereCollider(sphere);
+  ObjectDef cloud;
+  cloud.vertices = {Vec3(0, Real(0.002), 0),   // in the ground's thickness layer
+                    Vec3(1, Real(-0.001), 0),  // behind the ground
+                    Vec3(2, Real(0.3), 0),     // inside the sphere
+                    Vec3(2, Real(-0.2), 0),    // inside both
+                    Vec3(3, Real(-0.5), 0),    // behind the ground, pinned
+                    Vec3(4, Real(1), 0)};      // free
+  cloud.pins = {4};
+  world.addParticles(cloud);
+  EXPECT_EQ(world.measure().insideColliders, 3u);
+}
 
 }  // namespace
 }  // namespace nucleon

@@ -64,23 +64,28 @@ const char* kRunHelp =
 constexpr double kOverstretchedLength = 3.0;
 
 // The failures a run met, over all of its frames: intersecting triangle pairs (exact checker),
-// edges stretched beyond kOverstretchedLength, and, from the world's counters, repairs and
-// crossings the fail-safe left. A run with any of them is reported as not clean.
+// edges stretched beyond kOverstretchedLength, particles ending a frame behind a collider's
+// surface, and, from the world's counters, repairs and crossings the fail-safe left. A run with
+// any of them is reported as not clean.
 struct FailureTally {
   std::uint64_t framesWithIntersections = 0;
   std::uint64_t maxIntersections = 0;
   std::uint64_t overstretchedFrames = 0;
+  std::uint64_t framesInsideColliders = 0;
+  std::uint64_t mostInsideColliders = 0;
   double worstStrain = 0;
 
   void add(const Measures& m) {
     framesWithIntersections += m.intersections > 0;
     maxIntersections = std::max<std::uint64_t>(maxIntersections, m.intersections);
     overstretchedFrames += m.maxStretch >= kOverstretchedLength - 1;
+    framesInsideColliders += m.insideColliders > 0;
+    mostInsideColliders = std::max<std::uint64_t>(mostInsideColliders, m.insideColliders);
     worstStrain = std::max(worstStrain, m.maxStrain);
   }
   bool clean(std::uint64_t nanCount, std::uint64_t repairs, std::uint64_t unresolved) const {
-    return framesWithIntersections == 0 && overstretchedFrames == 0 && nanCount == 0 &&
-           repairs == 0 && unresolved == 0;
+    return framesWithIntersections == 0 && overstretchedFrames == 0 && framesInsideColliders == 0 &&
+           nanCount == 0 && repairs == 0 && unresolved == 0;
   }
 };
 
@@ -216,6 +221,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
                         {"ms", seconds * 1e3},
                         {"max_strain", m.maxStrain},
                         {"intersections", m.intersections},
+                        {"inside_colliders", m.insideColliders},
                         {"contacts", m.contacts}});
     if (!o.outDir.empty())
       for (std::size_t i = 0; i < world.objectCount(); ++i) {
@@ -293,6 +299,8 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
         {"frames_with_intersections", failures.framesWithIntersections},
         {"max_intersections", failures.maxIntersections},
         {"overstretched_frames", failures.overstretchedFrames},
+        {"frames_inside_colliders", failures.framesInsideColliders},
+        {"most_inside_colliders", failures.mostInsideColliders},
         {"worst_frame_max_strain", failures.worstStrain},
         {"unresolved_crossing_pairs", world.collisionReport().unresolvedPairs}}},
       {"min_height", m.minHeight},
@@ -363,6 +371,9 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
       out << " edges beyond " << kOverstretchedLength << "x their rest length in "
           << failures.overstretchedFrames << " frames (worst strain " << failures.worstStrain
           << ")";
+    if (failures.framesInsideColliders > 0)
+      out << " particles behind a collider's surface in " << failures.framesInsideColliders
+          << " frames (most " << failures.mostInsideColliders << ")";
     if (unresolved > 0) out << " " << unresolved << " crossing pairs left unresolved";
     if (nanCount > 0 || recoveries.total() > 0) out << " repairs (NaN, recoveries above)";
     out << '\n';

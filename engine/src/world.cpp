@@ -727,6 +727,7 @@ Measures World::measure() const {
   m.volumeRatio = rest != 0 ? now / rest : -1.0;
   // Touching: within 1 mm of a contact surface.
   m.contacts = countTouchingParticles(s.colliders, s.particles, Real(1e-3));
+  m.insideColliders = countParticlesInsideColliders(s.colliders, s.particles, Real(1e-6));
   // Every object's surface in global particle indices, all objects together: pairs within one
   // object (self-intersection) and across objects count alike. Counted in the world's arena when
   // it has one, so that setThreads bounds the measure too.

@@ -96,6 +96,9 @@ struct Measures {
   double minHeight = 0;        // lowest particle coordinate along −gravity (y if gravity is 0)
   double volumeRatio = -1;     // current / rest volume of closed objects; −1 if there are none
   std::size_t contacts = 0;    // particles touching the ground plane or a sphere collider
+  // Free particles behind the ground's, a plane's or a sphere's surface itself (deeper than its
+  // thickness, by more than 1 µm): contacts that failed. 0 in a sound state.
+  std::size_t insideColliders = 0;
   // Pairs of surface triangles (cloth, solid boundary and collider triangles, of all objects
   // together) that share no vertex and intersect, touching included; decided exactly
   // (systems/diagnostics/triangle_intersections.h). A state free of interpenetration has 0.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -212,6 +213,27 @@ std::size_t countTouchingParticles(const ColliderPool& colliders, const Particle
     if (particles.w[i] == 0) continue;
     for (std::size_t k = 0; k < colliders.size(); ++k)
       if (surfaceAt(colliders, k, particles.x[i]).gap <= tolerance) {
+        ++count;
+        break;
+      }
+  }
+  return count;
+}
+
+Real colliderGap(const ColliderPool& colliders, const Vec3& y) {
+  Real gap = std::numeric_limits<Real>::infinity();
+  for (std::size_t k = 0; k < colliders.size(); ++k)
+    gap = std::min(gap, surfaceAt(colliders, k, y).gap);
+  return gap;
+}
+
+std::size_t countParticlesInsideColliders(const ColliderPool& colliders,
+                                          const ParticlePool& particles, Real tolerance) {
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    if (particles.w[i] == 0) continue;
+    for (std::size_t k = 0; k < colliders.size(); ++k)
+      if (surfaceAt(colliders, k, particles.x[i]).gap < -colliders.thickness[k] - tolerance) {
         ++count;
         break;
       }

@@ -62,4 +62,13 @@ std::size_t resolveMissedContacts(const ContactPool& contacts, const ColliderPoo
 std::size_t countTouchingParticles(const ColliderPool& colliders, const ParticlePool& particles,
                                    Real tolerance);
 
+// The smallest signed gap of point y over the colliders: its distance to a collider's surface
+// less that collider's thickness (negative inside the contact layer); +∞ when there are none.
+Real colliderGap(const ColliderPool& colliders, const Vec3& y);
+
+// Free particles at x behind some collider's surface itself (deeper than its thickness, by more
+// than `tolerance`): the contacts failed them. A run's stats count the frames that end with any.
+std::size_t countParticlesInsideColliders(const ColliderPool& colliders,
+                                          const ParticlePool& particles, Real tolerance);
+
 }  // namespace nucleon

@@ -15,6 +15,7 @@
 
 #include "systems/collision/broad_phase.h"
 #include "systems/collision/ccd.h"
+#include "systems/collision/particle_contacts.h"
 #include "systems/collision/primitive_distance.h"
 
 namespace nucleon {
@@ -595,9 +596,13 @@ Index joinZone(std::vector<Index>& parent, Index i, Index root) {
 // larger turn, far beyond any substep's, is left out and the zone only translates). Sums in
 // particle order, so the result does not depend on the thread count. With `keepMomentum` false
 // the zones stop where the substep began instead (the old fail-safe: it ends the rounds sooner,
-// and loses the zones' momentum). Returns the zones.
-std::size_t moveImpactZones(PrimitiveContactPool& contacts, ParticlePool& particles, int round,
-                            bool keepMomentum, CrossingReport& report) {
+// and loses the zones' momentum), and so does a zone whose rigid motion would take one of its
+// particles deeper into a collider's contact layer than it started (the zone does not know the
+// ground or a sphere; its start does). Returns the zones; report.stoppedZones counts the stopped
+// ones of this round.
+std::size_t moveImpactZones(PrimitiveContactPool& contacts, ParticlePool& particles,
+                            const ColliderPool& colliders, int round, bool keepMomentum,
+                            CrossingReport& report) {
   const std::size_t n = particles.size();
   std::vector<PrimitiveContactPool::ImpactZone>& zones = contacts.zones;
   zones.clear();
@@ -651,12 +656,30 @@ std::size_t moveImpactZones(PrimitiveContactPool& contacts, ParticlePool& partic
     else
       ++report.turnsDropped;
   }
+  const auto targetOf = [&](const PrimitiveContactPool::ImpactZone& zone, std::size_t i) {
+    return Vec3(
+        (zone.center + zone.motion + zone.rotation * (particles.x[i].cast<double>() - zone.center))
+            .cast<Real>());
+  };
+  if (colliders.size() > 0 && keepMomentum)
+    for (std::size_t i = 0; i < n; ++i) {
+      if (contacts.carryPrecedence[i] != 1) continue;
+      PrimitiveContactPool::ImpactZone& zone = zoneOfParticle(i);
+      if (zone.stopped) continue;
+      const Real start = std::min(colliderGap(colliders, particles.x[i]), Real(0));
+      if (colliderGap(colliders, targetOf(zone, i)) < start) {
+        zone.stopped = true;
+        zone.motion.setZero();
+        zone.rotation = Mat3d::Identity();
+      }
+    }
+  report.stoppedZones = 0;
+  for (PrimitiveContactPool::ImpactZone& zone : zones)
+    report.stoppedZones += !keepMomentum || zone.stopped;
   for (std::size_t i = 0; i < n; ++i) {
     if (contacts.carryPrecedence[i] != 1) continue;
     const PrimitiveContactPool::ImpactZone& zone = zoneOfParticle(i);
-    const Vec3 target = Vec3(
-        (zone.center + zone.motion + zone.rotation * (particles.x[i].cast<double>() - zone.center))
-            .cast<Real>());
+    const Vec3 target = targetOf(zone, i);
     if (particles.p[i] != target) {
       particles.p[i] = target;
       contacts.failsafeRound[i] = round + 1;
@@ -878,7 +901,8 @@ void measureStartDistances(PrimitiveContactPool& contacts, const CandidatePairs&
 }
 
 CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
-                                const CollisionPrimitives& primitives, ParticlePool& particles) {
+                                const CollisionPrimitives& primitives,
+                                const ColliderPool& colliders, ParticlePool& particles) {
   CrossingReport report;
   // Every particle ends inside its bounds, which the broad phase's inflated boxes enclose: no pair
   // outside the candidate set can have crossed.
@@ -1052,8 +1076,8 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
     // can meet the next zone round after round: past half the round limit the zones stop where
     // the substep began, which ends it sooner (counted).
     const bool keepMomentum = round < kMomentumRounds;
-    if (anyZone) report.zones = moveImpactZones(contacts, particles, round, keepMomentum, report);
-    if (!keepMomentum) report.stoppedZones = report.zones;
+    if (anyZone)
+      report.zones = moveImpactZones(contacts, particles, colliders, round, keepMomentum, report);
     report.crossings += crossings;
     report.rounds = round + 1;
     if (crossings == 0) return report;

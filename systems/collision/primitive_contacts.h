@@ -51,6 +51,7 @@
 #include <cstddef>
 
 #include "components/candidate_pairs.h"
+#include "components/collider_pool.h"
 #include "components/collision_primitives.h"
 #include "components/particles.h"
 #include "components/primitive_contact_pool.h"
@@ -110,9 +111,12 @@ void measureStartDistances(PrimitiveContactPool& contacts, const CandidatePairs&
 // Keeps the solve's final motion crossing-free (see the header comment): first clamps every free
 // particle into its bounds (CandidatePairs::pathPoint and boundSlack; the world finds the pairs
 // again for the actual motion when the solve leaves them, so this only guards), then the CCD
-// rounds.
+// rounds. An impact zone whose rigid motion would take a particle into the contact layer of a
+// collider without a mesh (the ground, a plane, a sphere) stops where the substep began instead
+// (counted with the stopped zones): the start is outside every collider and crossing-free.
 CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
-                                const CollisionPrimitives& primitives, ParticlePool& particles);
+                                const CollisionPrimitives& primitives,
+                                const ColliderPool& colliders, ParticlePool& particles);
 
 // Restitution of closing contacts after the velocity update (v = (p − x)/h already holds the
 // inelastic response): the relative normal velocity becomes at least −e times its approach value.

@@ -106,6 +106,12 @@ void redetectFromSolve(SolvePools& pools, SolveReport& report) {
 // against the contact that pushed it, and stretch the cloth around it); then the fail-safe.
 void finishPrimitiveContacts(SolvePools& pools, SolverKind kind, SolveReport& report) {
   applyPrimitiveFriction(pools.primitiveContacts, pools.particles, kind);
+  // Friction between two movable primitives can drag a particle into a collider it rests on (a
+  // layer of a pile sliding down over the bottom one on the ground, which then ends the substep
+  // below the ground): the collider contacts are projected once more, last, as in every round.
+  // Their own friction is bounded over the whole substep, so this adds none.
+  if (pools.contacts.size() > 0)
+    projectContacts(pools.contacts, pools.colliders, pools.particles, kind);
   ParticlePool& particles = pools.particles;
   // The fail-safe may carry particles with a kinematic body beyond their bounds, where pairs
   // outside the candidate set could cross: the pairs of the new motion are found and checked
@@ -117,8 +123,8 @@ void finishPrimitiveContacts(SolvePools& pools, SolverKind kind, SolveReport& re
       redetectFromSolve(pools, report);
       measureStartDistances(pools.primitiveContacts, pools.candidates, pools.primitives, particles);
     }
-    const CrossingReport crossing =
-        resolveCrossings(pools.primitiveContacts, pools.candidates, pools.primitives, particles);
+    const CrossingReport crossing = resolveCrossings(pools.primitiveContacts, pools.candidates,
+                                                     pools.primitives, pools.colliders, particles);
     report.crossing.clamped += crossing.clamped;
     report.crossing.crossings += crossing.crossings;
     report.crossing.stopped += crossing.stopped;
