@@ -92,6 +92,12 @@ struct PrimitiveContactPool {
   // by the rigid motion of a kinematic body, a lower object and triangle first), and, when
   // carried, that motion x → R x + t.
   std::vector<std::uint64_t> carryPrecedence;
+  static constexpr std::uint64_t kImpactZonePrecedence = 1;
+  // The particles the fail-safe carried with a body in its last pass and their inverse masses,
+  // while the sweeps after it hold them pinned (solve_constraints.cpp): scratch whose capacity
+  // is kept.
+  std::vector<Index> held;
+  std::vector<Real> heldInverseMass;
   std::vector<Mat3d> carryRotation;
   std::vector<Vec3d> carryTranslation;
   // The fail-safe's impact zones (precedence 1): per particle, its parent in the zone forest

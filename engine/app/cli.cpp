@@ -341,6 +341,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
         {"impact_zones", c.impactZones},
         {"stopped_impact_zones", c.stoppedImpactZones},
         {"impact_zone_turns_dropped", c.impactZoneTurnsDropped},
+        {"carry_relaxations", c.carryRelaxations},
         {"unresolved_pairs", c.unresolvedPairs},
         {"first_crossing_step",
          c.firstCrossingStep > 0 ? nlohmann::json(c.firstCrossingStep) : nlohmann::json()}};

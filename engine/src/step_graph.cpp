@@ -188,6 +188,7 @@ void StepGraph::runStage(int stage) {
       report.impactZones += crossing.zones;
       report.stoppedImpactZones += crossing.stoppedZones;
       report.impactZoneTurnsDropped += crossing.turnsDropped;
+      report.carryRelaxations += crossing.relaxations;
       report.unresolvedPairs += crossing.unresolved;
       if (crossing.crossings > 0 && report.firstCrossingStep == 0)
         report.firstCrossingStep = c.step;

@@ -67,10 +67,14 @@ struct CollisionReport {
   // Impact zones the fail-safe moved as rigid bodies keeping their particles' momentum (summed
   // over its passes and substeps; the rest of the reset positions are theirs).
   std::uint64_t impactZones = 0;
-  // … of them stopped where the substep began, their momentum lost, to end the fail-safe's rounds.
+  // … of them stopped where the substep began, their momentum lost, to end the fail-safe's rounds
+  // or because their rigid motion would have entered the ground or a sphere.
   std::uint64_t stoppedImpactZones = 0;
   // … and turns of a quarter or more in one substep the zones left out, translating only.
   std::uint64_t impactZoneTurnsDropped = 0;
+  // Substeps in which the fail-safe carried particles with a body and the sweeps then ran again
+  // with those particles pinned, pulling their neighbours back to them.
+  std::uint64_t carryRelaxations = 0;
   std::uint64_t unresolvedPairs = 0;    // pairs still crossing at the fail-safe's round limit
   std::uint64_t firstCrossingStep = 0;  // 1-based step of the first fail-safe action; 0 if none
 };

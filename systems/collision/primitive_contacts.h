@@ -98,6 +98,8 @@ struct CrossingReport {
   // carried out of their bounds for good)
   std::size_t unresolved = 0;
   int rounds = 0;
+  // passes after which the sweeps ran again with the carried particles pinned (solve_constraints)
+  std::size_t relaxations = 0;
 };
 
 // The distance of every candidate pair at the start of the substep (particles.x) into

@@ -100,11 +100,66 @@ void redetectFromSolve(SolvePools& pools, SolveReport& report) {
   ++report.redetections;
 }
 
+// Runs the substep's sweep plan, contacts last in each round, with the plain generic kernels
+// (which read each particle's inverse mass from the pool, so that a particle at w = 0 stays put)
+// in place and without Jacobi's acceleration.
+void sweepPinned(SolvePools& pools, const SolveSettings& settings, const SubstepContext& context) {
+  SweepContext sweep{pools.particles, context.h, settings.relaxation, nullptr};
+  sweep.chebyshevRho = 0;
+  sweep.optimizedPaths = false;
+  for (const SweepOp& op : pools.plan.ops) {
+    sweep.objectRuns =
+        op.objectRunsOffset < 0 ? nullptr : pools.plan.objectRuns.data() + op.objectRunsOffset;
+    forEachPoolOf(op.family, pools.constraints, [&](auto& pool, auto tag) {
+      using Tag = decltype(tag);
+      if constexpr ((Tag::kPaths & kTetherLayers) != 0)
+        solveTethers(SolverKind::ColoredGaussSeidel, pool, sweep);
+      else
+        solveSweep<typename Tag::Kernel, 0>(SolverKind::ColoredGaussSeidel, pool, sweep);
+    });
+    if (!op.endsRound) continue;
+    projectAllContacts(pools, SolverKind::ColoredGaussSeidel);
+  }
+  pools.constraints.forEach([](auto& pool) { bookVertexMultipliers(pool); });
+}
+
+// The fail-safe holds the free particles of a pair crossing a body without free particles (a
+// collider, a pinned group) to that body's rigid motion, but leaves their neighbours where the
+// sweeps put them, which assumed the held ones would move too: their edges stretch. Where the
+// same hold comes back substep after substep (a cloth sliding down off a needle's tip, held at
+// the tip), the stretch grows with every one: edges at five times their rest length within a few
+// frames. The substep's sweeps run once more with those particles pinned to where the body took
+// them and pull the neighbours back towards them (four rounds instead of the scene's ten left a
+// cloth on a needle at 3.6 times); the next fail-safe pass checks the motion they leave. The
+// particles of impact zones are not pinned: a zone keeps its momentum, and pinning it would
+// hand its neighbours' momentum to nothing. Returns whether any particle was pinned.
+bool relaxAroundHeldParticles(SolvePools& pools, const SolveSettings& settings,
+                              const SubstepContext& context) {
+  PrimitiveContactPool& contacts = pools.primitiveContacts;
+  ParticlePool& particles = pools.particles;
+  contacts.held.clear();
+  contacts.heldInverseMass.clear();
+  for (std::size_t i = 0; i < contacts.carryPrecedence.size(); ++i)
+    if (contacts.carryPrecedence[i] > PrimitiveContactPool::kImpactZonePrecedence &&
+        particles.w[i] > 0) {
+      contacts.held.push_back(static_cast<Index>(i));
+      contacts.heldInverseMass.push_back(particles.w[i]);
+      particles.w[i] = 0;
+    }
+  if (contacts.held.empty()) return false;
+  sweepPinned(pools, settings, context);
+  for (std::size_t k = 0; k < contacts.held.size(); ++k)
+    particles.w[contacts.held[k]] = contacts.heldInverseMass[k];
+  return true;
+}
+
 // After the sweeps: friction of the primitive contacts; the candidate pairs of the actual motion
 // x → p where contacts and collider responses moved a particle off its predicted course and out
 // of its bounds (rather than the motion cut back to the bounds: a clamp would hold a particle
 // against the contact that pushed it, and stretch the cloth around it); then the fail-safe.
-void finishPrimitiveContacts(SolvePools& pools, SolverKind kind, SolveReport& report) {
+void finishPrimitiveContacts(SolvePools& pools, const SolveSettings& settings,
+                             const SubstepContext& context, SolveReport& report) {
+  const SolverKind kind = settings.sweepKind;
   applyPrimitiveFriction(pools.primitiveContacts, pools.particles, kind);
   // Friction between two movable primitives can drag a particle into a collider it rests on (a
   // layer of a pile sliding down over the bottom one on the ground, which then ends the substep
@@ -118,7 +173,8 @@ void finishPrimitiveContacts(SolvePools& pools, SolverKind kind, SolveReport& re
   // again. Particles still outside after the last pass are counted with the unresolved pairs
   // (on the turning-box torture scene two passes were the most any substep needed).
   std::size_t outside = countOutsideParticleBounds(pools.candidates, particles.p);
-  for (int pass = 0; pass < kCrossingPasses && (pass == 0 || outside > 0); ++pass) {
+  bool relaxed = false;
+  for (int pass = 0; pass < kCrossingPasses && (pass == 0 || outside > 0 || relaxed); ++pass) {
     if (outside > 0) {
       redetectFromSolve(pools, report);
       measureStartDistances(pools.primitiveContacts, pools.candidates, pools.primitives, particles);
@@ -135,6 +191,10 @@ void finishPrimitiveContacts(SolvePools& pools, SolverKind kind, SolveReport& re
     report.crossing.rounds += crossing.rounds;
     // A later pass checks the earlier one's leftovers again: only the last one's count.
     report.crossing.unresolved = crossing.unresolved;
+    // After the first pass only: the later ones check what it and the sweeps left.
+    relaxed =
+        crossing.stopped > 0 && pass == 0 && relaxAroundHeldParticles(pools, settings, context);
+    if (relaxed) ++report.crossing.relaxations;
     outside = countOutsideParticleBounds(pools.candidates, particles.p);
   }
   report.crossing.unresolved += outside;
@@ -193,7 +253,7 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
     });
   if (pools.primitives.total() > 0)
     report.contactSeconds +=
-        timed([&] { finishPrimitiveContacts(pools, settings.sweepKind, report); });
+        timed([&] { finishPrimitiveContacts(pools, settings, context, report); });
   return report;
 }
 
