@@ -65,6 +65,41 @@ TEST_P(EveryTortureScene, IsCleanInEveryFrame) {
   EXPECT_LT(j.at("max_strain").get<double>(), 1.0);
 }
 
+// The cases not clean yet (torture/unsolved/) still never crash, repair, produce NaN or leave
+// triangles intersecting; at 4 substeps, where a cloth thrown about by a propeller's blades
+// once made an impact zone whose root the fail-safe had since carried with the blade, which had
+// no slot (a crash in frame 90–120).
+TEST(UnsolvedTortureScenes, NeverCrashRepairOrIntersect) {
+  for (const auto& entry : std::filesystem::directory_iterator(std::string(NUCLEON_ASSETS_DIR) +
+                                                               "/scenes/torture/unsolved")) {
+    if (entry.path().extension() != ".json") continue;
+    const std::string stats = (std::filesystem::temp_directory_path() /
+                               ("nucleon_unsolved_" + entry.path().stem().string() + ".json"))
+                                  .string();
+    std::ostringstream out, err;
+#if defined(__SANITIZE_ADDRESS__)
+    const char* frames = "30";
+#else
+    const char* frames = "120";
+#endif
+    ASSERT_EQ(runCommandLine({"run", entry.path().string(), "--quiet", "--substeps", "4",
+                              "--frames", frames, "--stats", stats},
+                             out, err),
+              0)
+        << err.str();
+    std::ifstream in(stats);
+    const nlohmann::json j = nlohmann::json::parse(in);
+    in.close();
+    std::filesystem::remove(stats);
+    const nlohmann::json& failures = j.at("failures");
+    EXPECT_EQ(failures.at("frames_with_intersections").get<long long>(), 0) << entry.path();
+    EXPECT_EQ(failures.at("frames_inside_colliders").get<long long>(), 0) << entry.path();
+    EXPECT_EQ(failures.at("unresolved_crossing_pairs").get<long long>(), 0) << entry.path();
+    EXPECT_EQ(j.at("recoveries").get<long long>(), 0) << entry.path();
+    EXPECT_EQ(j.at("nan_count").get<long long>(), 0) << entry.path();
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(TortureScenes, EveryTortureScene, testing::ValuesIn(tortureSceneNames()),
                          [](const testing::TestParamInfo<std::string>& info) {
                            return info.param;  // scene names are identifiers: [a-z0-9_]

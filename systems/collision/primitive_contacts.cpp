@@ -606,11 +606,16 @@ std::size_t moveImpactZones(PrimitiveContactPool& contacts, ParticlePool& partic
   const std::size_t n = particles.size();
   std::vector<PrimitiveContactPool::ImpactZone>& zones = contacts.zones;
   zones.clear();
+  // A zone's root need not be in it any more: a particle's hold only ranks up, and a root that a
+  // later crossing carried with a body keeps its place in the union–find. Every root of a zone
+  // particle gets a slot (a root at precedence 1 only, as before, left such zones without one:
+  // a crash on a cloth thrown by a propeller's blades).
+  contacts.zoneSlot.assign(n, PrimitiveContactPool::kNoZone);
   for (std::size_t i = 0; i < n; ++i) {
     if (contacts.carryPrecedence[i] != 1) continue;
     const Index root = zoneOf(contacts.zoneParent, static_cast<Index>(i));
-    if (root == i) {
-      contacts.zoneSlot[i] = static_cast<Index>(zones.size());
+    if (contacts.zoneSlot[root] == PrimitiveContactPool::kNoZone) {
+      contacts.zoneSlot[root] = static_cast<Index>(zones.size());
       zones.emplace_back();
     }
   }
