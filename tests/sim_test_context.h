@@ -38,15 +38,20 @@ inline World hangingCloth(int n, int iterations, int substeps = 1, int threads =
   return world;
 }
 
-// The names (file stems) of every scene in the bundled folder, sorted, so that a new scene is
-// covered by the tests over all scenes without a new test.
-inline std::vector<std::string> bundledSceneNames() {
+// The names (file stems) of every scene in a folder of assets/scenes ("" for the bundled
+// scenes themselves), sorted, so that a new scene is covered by the tests over all scenes
+// without a new test.
+inline std::vector<std::string> sceneNamesIn(const std::string& folder) {
   std::vector<std::string> names;
   for (const auto& entry :
-       std::filesystem::directory_iterator(std::string(NUCLEON_ASSETS_DIR) + "/scenes"))
+       std::filesystem::directory_iterator(std::string(NUCLEON_ASSETS_DIR) + "/scenes/" + folder))
     if (entry.path().extension() == ".json") names.push_back(entry.path().stem().string());
   std::sort(names.begin(), names.end());
   return names;
+}
+
+inline std::vector<std::string> bundledSceneNames() {
+  return sceneNamesIn("");
 }
 
 // The message of the SceneError that building a world from this scene text raises; empty if none.

@@ -10,8 +10,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "engine/app/cli.h"
 #include "nucleon/scene.h"
+#include "scene_run.h"
 #include "sim_test_context.h"
 
 using namespace nucleon;
@@ -29,11 +29,7 @@ class EveryBundledScene : public testing::TestWithParam<std::string> {};
 // with their own solver settings.
 TEST_P(EveryBundledScene, RunsWithoutRepairsOrNonFiniteValues) {
   const std::string scene = std::string(NUCLEON_ASSETS_DIR) + "/scenes/" + GetParam() + ".json";
-  const std::string stats =
-      (std::filesystem::temp_directory_path() / ("nucleon_bundled_" + GetParam() + ".json"))
-          .string();
-  std::ostringstream out, err;
-  std::vector<std::string> args = {"run", scene, "--quiet", "--stats", stats};
+  std::vector<std::string> args;
 #if defined(__SANITIZE_ADDRESS__)
   // The sanitizer build looks for memory and undefined-behaviour errors, which the first frames
   // (contacts made, colliders reached) exercise; the Release and double builds run every frame.
@@ -47,13 +43,10 @@ TEST_P(EveryBundledScene, RunsWithoutRepairsOrNonFiniteValues) {
                        : GetParam() == "cloth_free_fall" ? "5"
                        : GetParam() == "cloth_hang_388"  ? "3"
                                                          : "30";
-  args.insert(args.end(), {"--frames", frames});
+  args = {"--frames", frames};
 #endif
-  ASSERT_EQ(runCommandLine(args, out, err), 0) << err.str();
-  std::ifstream in(stats);
-  const nlohmann::json j = nlohmann::json::parse(in);
-  in.close();
-  std::filesystem::remove(stats);
+  const nlohmann::json j = test::runScene(scene, args).stats;
+  ASSERT_FALSE(j.is_null());
   EXPECT_EQ(j.at("recoveries").get<long long>(), 0) << j.at("recoveries_by_kind").dump();
   EXPECT_TRUE(j.at("first_recovery_frame").is_null());
   EXPECT_EQ(j.at("nan_count").get<long long>(), 0);
@@ -121,9 +114,8 @@ TEST(BundledScenes, RopeBendStiffCurveHoldsItsShape) {
 // self-collision dropped edge first folds through itself on the ground, and the summary and the
 // stats say so, while the repairs stay 0 (nothing was repaired: the failure is the state's).
 TEST(RunFailures, IntersectionsMakeARunNotClean) {
-  const std::filesystem::path folder = std::filesystem::temp_directory_path();
-  const std::string file = (folder / "nucleon_unclean_scene.json").string();
-  const std::string stats = (folder / "nucleon_unclean_stats.json").string();
+  const std::string file =
+      (std::filesystem::temp_directory_path() / "nucleon_unclean_scene.json").string();
   {
     std::ifstream in(std::string(NUCLEON_ASSETS_DIR) + "/scenes/cloth_self.json");
     nlohmann::json j = nlohmann::json::parse(in);
@@ -132,13 +124,10 @@ TEST(RunFailures, IntersectionsMakeARunNotClean) {
     j["frames"] = 60;
     std::ofstream(file) << j.dump();
   }
-  std::ostringstream out, err;
-  ASSERT_EQ(runCommandLine({"run", file, "--stats", stats, "--quiet"}, out, err), 0) << err.str();
-  std::ifstream in(stats);
-  const nlohmann::json j = nlohmann::json::parse(in);
-  in.close();
-  std::filesystem::remove(stats);
+  const test::SceneRun run = test::runScene(file);
   std::filesystem::remove(file);
+  const nlohmann::json& j = run.stats;
+  ASSERT_FALSE(j.is_null());
   const nlohmann::json& failures = j.at("failures");
   EXPECT_GT(failures.at("frames_with_intersections").get<long long>(), 0);
   EXPECT_EQ(failures.at("max_intersections").get<long long>(),
@@ -150,5 +139,5 @@ TEST(RunFailures, IntersectionsMakeARunNotClean) {
                 .get<long long>());
   EXPECT_FALSE(failures.at("clean").get<bool>());
   EXPECT_EQ(j.at("recoveries").get<long long>(), 0);
-  EXPECT_NE(out.str().find("NOT CLEAN: intersections in"), std::string::npos) << out.str();
+  EXPECT_NE(run.summary.find("NOT CLEAN: intersections in"), std::string::npos) << run.summary;
 }

@@ -100,25 +100,30 @@ void redetectFromSolve(SolvePools& pools, SolveReport& report) {
   ++report.redetections;
 }
 
+// One op of the sweep plan: a family's sweep over its pools, restricted to the op's objects.
+void runSweepOp(const SweepOp& op, const SweepPlan& plan, ConstraintPools& constraints,
+                SweepContext& sweep, SolverKind kind) {
+  sweep.objectRuns =
+      op.objectRunsOffset < 0 ? nullptr : plan.objectRuns.data() + op.objectRunsOffset;
+  forEachPoolOf(op.family, constraints, [&](auto& pool, auto tag) {
+    using Tag = decltype(tag);
+    if constexpr ((Tag::kPaths & kTetherLayers) != 0)
+      solveTethers(kind, pool, sweep);
+    else
+      solveSweep<typename Tag::Kernel, Tag::kPaths>(kind, pool, sweep);
+  });
+}
+
 // Runs the substep's sweep plan, contacts last in each round, with the plain generic kernels
-// (which read each particle's inverse mass from the pool, so that a particle at w = 0 stays put)
-// in place and without Jacobi's acceleration.
+// (optimizedPaths off: they read each particle's inverse mass from the pool, not a batch's copy,
+// so that a particle at w = 0 stays put) in place and without Jacobi's acceleration.
 void sweepPinned(SolvePools& pools, const SolveSettings& settings, const SubstepContext& context) {
   SweepContext sweep{pools.particles, context.h, settings.relaxation, nullptr};
   sweep.chebyshevRho = 0;
   sweep.optimizedPaths = false;
   for (const SweepOp& op : pools.plan.ops) {
-    sweep.objectRuns =
-        op.objectRunsOffset < 0 ? nullptr : pools.plan.objectRuns.data() + op.objectRunsOffset;
-    forEachPoolOf(op.family, pools.constraints, [&](auto& pool, auto tag) {
-      using Tag = decltype(tag);
-      if constexpr ((Tag::kPaths & kTetherLayers) != 0)
-        solveTethers(SolverKind::ColoredGaussSeidel, pool, sweep);
-      else
-        solveSweep<typename Tag::Kernel, 0>(SolverKind::ColoredGaussSeidel, pool, sweep);
-    });
-    if (!op.endsRound) continue;
-    projectAllContacts(pools, SolverKind::ColoredGaussSeidel);
+    runSweepOp(op, pools.plan, pools.constraints, sweep, SolverKind::ColoredGaussSeidel);
+    if (op.endsRound) projectAllContacts(pools, SolverKind::ColoredGaussSeidel);
   }
   pools.constraints.forEach([](auto& pool) { bookVertexMultipliers(pool); });
 }
@@ -227,15 +232,7 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
   sweep.optimizedPaths = settings.optimizedPaths;
   int roundsDone = 0;
   for (const SweepOp& op : plan.ops) {
-    sweep.objectRuns =
-        op.objectRunsOffset < 0 ? nullptr : plan.objectRuns.data() + op.objectRunsOffset;
-    forEachPoolOf(op.family, constraints, [&](auto& pool, auto tag) {
-      using Tag = decltype(tag);
-      if constexpr ((Tag::kPaths & kTetherLayers) != 0)
-        solveTethers(kind, pool, sweep);
-      else
-        solveSweep<typename Tag::Kernel, Tag::kPaths>(kind, pool, sweep);
-    });
+    runSweepOp(op, plan, constraints, sweep, kind);
     if (!op.endsRound) continue;
     if (anyContacts) report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
     // The repeated cascade, from the positions the fine sweeps left.
