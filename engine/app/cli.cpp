@@ -31,13 +31,14 @@ using Clock = std::chrono::steady_clock;
 
 using cli::hex16;
 using cli::parseInt;
+using cli::parseNumber;
 using cli::UsageError;
 
 const char* kUsage =
     "usage: nucleon run SCENE.json [--frames N] [--substeps S] [--threads T]\n"
     "                              [--solver gauss-seidel|jacobi|colored-gs|multigrid]\n"
     "                              [--iterations K] [--out DIR] [--stats FILE.json]\n"
-    "                              [--render FILE.png] [--quiet]\n"
+    "                              [--render FILE.png] [--quiet] [--max-collider-travel M]\n"
     "       nucleon bench SCENE|NAME ... [--threads 1,2,..] [--solver a,b] [--iterations K]\n"
     "                              [--steps N] [--warmup W] [--repeats R] [--csv FILE]\n"
     "                              [--lanes avx2,avx512]\n"
@@ -57,6 +58,10 @@ const char* kRunHelp =
     "  --stats FILE      write run statistics as JSON\n"
     "  --render FILE     write a PNG picture of the last frame\n"
     "  --quiet           no progress output\n"
+    "  --max-collider-travel M\n"
+    "                    the farthest (m) an animated collider may move in one substep before\n"
+    "                    a step takes more substeps (0: never; default: 3/4 of the smallest\n"
+    "                    contact distance between a collider and a moving object)\n"
     "Flags override the scene file, which overrides the defaults. Bad input: exit code 2.\n";
 
 // An edge this many times its rest length (or longer) in any frame makes a run not clean: the
@@ -92,6 +97,7 @@ struct FailureTally {
 struct RunOptions {
   std::string scene;
   std::optional<int> frames, substeps, threads, iterations;
+  std::optional<double> maxColliderTravel;
   std::optional<std::string> solver;
   std::string outDir, statsFile, renderFile;
   bool quiet = false;
@@ -123,6 +129,8 @@ RunOptions parseRun(const std::vector<std::string>& args) {
       o.renderFile = value();
     else if (a == "--quiet")
       o.quiet = true;
+    else if (a == "--max-collider-travel")
+      o.maxColliderTravel = parseNumber(a, value(), 0, 1000);
     else if (!a.empty() && a[0] == '-')
       throw UsageError("unknown option '" + a + "'");
     else if (o.scene.empty())
@@ -182,6 +190,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
   }
   if (o.frames) scene.frames = *o.frames;
   if (o.substeps) scene.solver.substeps = *o.substeps;
+  if (o.maxColliderTravel) scene.solver.maxColliderTravel = static_cast<Real>(*o.maxColliderTravel);
   if (o.threads) scene.threads = *o.threads;
   if (o.iterations) {
     scene.solver.iterations = *o.iterations;
@@ -211,6 +220,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
   const auto wallStart = Clock::now();
   for (int frame = 1; frame <= scene.frames; ++frame) {
     const auto start = Clock::now();
+    const std::uint64_t substepsBefore = world.profile().substeps;
     world.step(dt);
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     stepSeconds += seconds;
@@ -222,7 +232,8 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
                         {"max_strain", m.maxStrain},
                         {"intersections", m.intersections},
                         {"inside_colliders", m.insideColliders},
-                        {"contacts", m.contacts}});
+                        {"contacts", m.contacts},
+                        {"substeps", world.profile().substeps - substepsBefore}});
     if (!o.outDir.empty())
       for (std::size_t i = 0; i < world.objectCount(); ++i) {
         const ObjectId id = world.objectAt(i);
@@ -342,6 +353,9 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
         {"stopped_impact_zones", c.stoppedImpactZones},
         {"impact_zone_turns_dropped", c.impactZoneTurnsDropped},
         {"carry_relaxations", c.carryRelaxations},
+        {"raised_substep_steps", c.raisedSubstepSteps},
+        {"most_substeps", c.mostSubsteps},
+        {"capped_substep_steps", c.cappedSubstepSteps},
         {"unresolved_pairs", c.unresolvedPairs},
         {"first_crossing_step",
          c.firstCrossingStep > 0 ? nlohmann::json(c.firstCrossingStep) : nlohmann::json()}};

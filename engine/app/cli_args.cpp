@@ -1,5 +1,7 @@
 #include "engine/app/cli_args.h"
 
+#include <cmath>
+#include <cstdlib>
 #include <iomanip>
 #include <sstream>
 
@@ -17,6 +19,18 @@ int parseInt(const std::string& flag, const std::string& value, int lo, int hi) 
     throw UsageError(flag + " expects an integer in [" + std::to_string(lo) + ", " +
                      std::to_string(hi) + "], got '" + value + "'");
   return static_cast<int>(x);
+}
+
+double parseNumber(const std::string& flag, const std::string& value, double lo, double hi) {
+  char* end = nullptr;
+  const double x = std::strtod(value.c_str(), &end);
+  if (value.empty() || end != value.c_str() + value.size() || !std::isfinite(x) || x < lo ||
+      x > hi) {
+    std::ostringstream range;
+    range << '[' << lo << ", " << hi << ']';
+    throw UsageError(flag + " expects a number in " + range.str() + ", got '" + value + "'");
+  }
+  return x;
 }
 
 std::vector<std::string> splitList(const std::string& value) {

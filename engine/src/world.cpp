@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
@@ -464,6 +465,10 @@ void World::setSolver(const SolverSettings& settings) {
   require(settings.smoother == SolverKind::GaussSeidel || settings.smoother == SolverKind::Jacobi ||
               settings.smoother == SolverKind::ColoredGaussSeidel,
           "the multigrid smoother must be gauss-seidel, jacobi or colored-gs");
+  require(std::isfinite(settings.maxColliderTravel) && settings.maxColliderTravel < 1e9,
+          "max_collider_travel must be finite (negative: derived from the thicknesses; 0: off)");
+  require(settings.maxSubsteps >= 0 && settings.maxSubsteps <= 10000,
+          "max_substeps must be in [0, 10000] (0: 8 × substeps, at least 16)");
   impl_->state.solver = settings;
   impl_->state.topologyDirty = true;  // the sweep plan follows the schedule
 }
@@ -482,6 +487,69 @@ int World::threads() const {
   return impl_->threads > 0 ? impl_->threads : tbb::info::default_concurrency();
 }
 
+int substepsForTravel(const SolverSettings& settings, double travel, double limit, bool& capped) {
+  capped = false;
+  const int least = settings.substeps;
+  // Written so that a NaN travel raises nothing.
+  if (!(limit > 0) || !(travel > limit * least)) return least;
+  const int most =
+      settings.maxSubsteps > 0 ? settings.maxSubsteps : std::min(10000, std::max(16, 8 * least));
+  const double needed = std::ceil(travel / limit);
+  if (needed > double(most)) {
+    capped = true;
+    return std::max(most, least);
+  }
+  return std::max(least, static_cast<int>(needed));
+}
+
+namespace {
+
+// The smallest contact distance (summed radii) between a primitive of an animated collider and a
+// primitive of an object that moves; 0 when there is no such pair.
+double smallestColliderContact(const CollisionPrimitives& primitives,
+                               const std::vector<ObjectRecord>& objects,
+                               const KinematicTracks& kinematics) {
+  std::vector<std::uint8_t> animated(objects.size(), 0);
+  for (const KinematicTrack& track : kinematics.tracks)
+    if (track.particles.empty() && track.object < animated.size()) animated[track.object] = 1;
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  double collider = kNone, moving = kNone;
+  const auto visit = [&](const std::vector<Real>& radius,
+                         const std::vector<std::uint32_t>& object) {
+    for (std::size_t i = 0; i < radius.size() && i < object.size(); ++i) {
+      if (object[i] >= objects.size()) continue;
+      if (animated[object[i]])
+        collider = std::min(collider, double(radius[i]));
+      else if (objects[object[i]].kind != ObjectKind::Collider)
+        moving = std::min(moving, double(radius[i]));
+    }
+  };
+  visit(primitives.pointRadius, primitives.pointObject);
+  visit(primitives.edgeRadius, primitives.edgeObject);
+  visit(primitives.triangleRadius, primitives.triangleObject);
+  return collider < kNone && moving < kNone ? collider + moving : 0;
+}
+
+// The substeps of the coming step of dt seconds (SolverSettings::maxColliderTravel), counted in
+// the collision report when raised.
+int substepsOfStep(WorldState& s, double dt) {
+  const SolverSettings& settings = s.solver;
+  const double limit = settings.maxColliderTravel < 0
+                           ? kColliderTravelShare * s.colliderContactDistance
+                           : double(settings.maxColliderTravel);
+  if (s.kinematics.empty() || !(limit > 0)) return settings.substeps;
+  bool capped = false;
+  const int substeps = substepsForTravel(
+      settings, colliderTravel(s.kinematics, s.particles, s.time, s.time + dt), limit, capped);
+  CollisionReport& report = s.collisionReport;
+  report.raisedSubstepSteps += substeps > settings.substeps;
+  report.cappedSubstepSteps += capped;
+  report.mostSubsteps = std::max<std::uint64_t>(report.mostSubsteps, std::uint64_t(substeps));
+  return substeps;
+}
+
+}  // namespace
+
 void World::step(double dt) {
   require(std::isfinite(dt) && dt > 0 && dt <= 1,
           "time step must be finite and in (0, 1] seconds, got " + std::to_string(dt));
@@ -499,6 +567,7 @@ void World::step(double dt) {
     } else
       s.hierarchies.objects.clear();
     s.plan = buildSweepPlan(s.solver, s.objects, s.constraints, s.particles);
+    s.colliderContactDistance = smallestColliderContact(s.primitives, s.objects, s.kinematics);
     s.topologyDirty = false;
   }
   if (!impl.arena) {
@@ -510,9 +579,9 @@ void World::step(double dt) {
     // The graph is made inside the arena so that its tasks run on the arena's threads.
     if (!impl.graph) impl.graph = std::make_unique<StepGraph>(impl.state);
     SubstepContext context;
-    context.h = static_cast<Real>(dt / impl.state.solver.substeps);
+    context.substeps = substepsOfStep(s, dt);
+    context.h = static_cast<Real>(dt / context.substeps);
     context.inverseH = 1 / context.h;
-    context.substeps = impl.state.solver.substeps;
     context.step = ++impl.state.stepCount;
     const double stepStart = impl.state.time;
     for (int i = 0; i < context.substeps; ++i) {

@@ -75,7 +75,13 @@ struct CollisionReport {
   // Substeps in which the fail-safe carried particles with a body and the sweeps then ran again
   // with those particles pinned, pulling their neighbours back to them.
   std::uint64_t carryRelaxations = 0;
-  std::uint64_t unresolvedPairs = 0;    // pairs still crossing at the fail-safe's round limit
+  std::uint64_t unresolvedPairs = 0;  // pairs still crossing at the fail-safe's round limit
+  // Steps that took more substeps than the solver's setting because an animated collider moved
+  // fast (SolverSettings::maxColliderTravel), the most substeps any step took, and the steps
+  // that needed more than SolverSettings::maxSubsteps and took that many.
+  std::uint64_t raisedSubstepSteps = 0;
+  std::uint64_t mostSubsteps = 0;
+  std::uint64_t cappedSubstepSteps = 0;
   std::uint64_t firstCrossingStep = 0;  // 1-based step of the first fail-safe action; 0 if none
 };
 

@@ -1,11 +1,13 @@
 #include "systems/dynamics/kinematic_motion.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 namespace nucleon {
 namespace {
@@ -136,6 +138,59 @@ void finishKinematics(const KinematicTracks& kinematics, ParticlePool& particles
       particles.p[particle] = target[i];
     });
   }
+}
+
+double colliderTravel(const KinematicTracks& kinematics, const ParticlePool& particles, double t0,
+                      double t1) {
+  double farthest = 0;
+  for (const KinematicTrack& track : kinematics.tracks) {
+    if (!track.particles.empty()) continue;  // a pin group
+    const Index count = track.particleCount;
+    if (track.drivenByTargets) {
+      if (!track.targetsPending) continue;
+      for (Index i = 0; i < count; ++i)
+        farthest = std::max(
+            farthest,
+            double((track.goal[i] - particles.x[track.particle(i)]).cast<double>().norm()));
+      continue;
+    }
+    // The pose at each sample time, then every particle along them.
+    std::array<Eigen::Matrix3d, kTravelSamples + 1> rotation;
+    std::array<Vec3d, kTravelSamples + 1> shift;
+    std::array<double, kTravelSamples + 1> kappa;
+    for (int k = 0; k <= kTravelSamples; ++k) {
+      const double t = t0 + (t1 - t0) * k / kTravelSamples;
+      const RigidPose pose = keyframePose(track, t);
+      rotation[k] = pose.rotation.toRotationMatrix();
+      shift[k] = track.pivot + pose.translation;
+      kappa[k] = bendCurvature(track.bend, t);
+    }
+    const auto posed = [&](const Vec3d& rest, int k) {
+      Vec3d r = rest - track.pivot;
+      if (kappa[k] != 0) r = bendPoint(track.bend, kappa[k], r);
+      return Vec3d(rotation[k] * r + shift[k]);
+    };
+    // The largest of per-particle lengths: the same for any split of the particles.
+    const double trackFarthest = tbb::parallel_reduce(
+        tbb::blocked_range<Index>(0, count, kGrain), 0.0,
+        [&](const tbb::blocked_range<Index>& r, double most) {
+          for (Index i = r.begin(); i != r.end(); ++i) {
+            const Vec3d rest = particles.restPosition[track.particle(i)].cast<double>();
+            Vec3d previous = posed(rest, 0);
+            double length = 0;
+            for (int k = 1; k <= kTravelSamples; ++k) {
+              const Vec3d next = posed(rest, k);
+              length += (next - previous).norm();
+              previous = next;
+            }
+            most = std::max(most, length);
+          }
+          return most;
+        },
+        [](double a, double b) { return std::max(a, b); });
+    farthest = std::max(farthest, trackFarthest);
+  }
+  return farthest;
 }
 
 }  // namespace nucleon

@@ -1,0 +1,204 @@
+// Substeps raised for fast animated colliders (SolverSettings::maxColliderTravel): how far a
+// collider travels over a step (the arc of a turn, the line to a target), how many substeps that
+// asks for, and a world that takes them, counts them and leaves slow scenes as they were.
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "engine/src/world_state.h"
+#include "nucleon/shapes.h"
+#include "sim_test_context.h"
+#include "systems/dynamics/kinematic_motion.h"
+
+namespace nucleon {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+// A 4×4 panel, vertical in the xy plane, its far edge `reach` m from the vertical axis through
+// the pivot (0, 1, 0), turning `turns` times about that axis per second from t = 0 to t = 1.
+ObjectDef spinningPanel(double reach, double turns) {
+  GridSpec spec;
+  spec.resolution = {4, 4};
+  spec.size = {1, 1};
+  spec.center = Vec3(Real(reach - 0.5), 1, 0);
+  spec.vertical = true;
+  ObjectDef def = gridCloth(spec);
+  def.name = "panel";
+  def.motion.pivot = Vec3d(0, 1, 0);
+  // Keyframes a sixteenth of a turn apart: slerp between them is the uniform turn.
+  const int keys = static_cast<int>(std::ceil(16 * turns));
+  for (int k = 0; k <= keys; ++k) {
+    Keyframe key;
+    key.time = double(k) / keys;
+    key.axis = Vec3d(0, 1, 0);
+    key.angle = 2 * kPi * turns * key.time;
+    def.motion.keyframes.push_back(key);
+  }
+  return def;
+}
+
+// A few free particles far from the panel: something that moves, so that a contact distance
+// between the collider and a moving primitive exists.
+ObjectDef farCloud() {
+  ObjectDef cloud;
+  for (int i = 0; i < 4; ++i) cloud.vertices.push_back(Vec3(Real(10 + 0.1 * i), 5, 0));
+  cloud.material.thickness = Real(0.005);
+  return cloud;
+}
+
+TEST(ColliderTravel, IsTheArcOfATurnItsFarthestPointSweeps) {
+  World world;
+  world.addCollider(spinningPanel(1.0, 2));
+  const WorldState& s = world.impl().state;
+  // Over a sixtieth of a second the far edge (1 m from the axis) sweeps 2·2π/60 rad of arc: the
+  // eight chords fall short of it by θ²/(24·64) of it at most (θ the step's turn, 0.21 rad),
+  // under 0.01%.
+  const double arc = 2 * 2 * kPi / 60;
+  EXPECT_NEAR(colliderTravel(s.kinematics, s.particles, 0.2, 0.2 + 1.0 / 60), arc, 1e-4 * arc);
+  // Half a turn in one interval: the chords still give 99.4% of the arc (sinc of π/16).
+  const double half = colliderTravel(s.kinematics, s.particles, 0, 0.25);
+  EXPECT_GT(half, 0.99 * kPi);
+  EXPECT_LE(half, kPi * (1 + 1e-9));
+}
+
+TEST(ColliderTravel, IsTheLineToATargetAndNothingWithout) {
+  GridSpec spec;
+  spec.resolution = {4, 4};
+  spec.size = {1, 1};
+  spec.center = Vec3(0, 1, 0);
+  World world;
+  const ObjectId id = world.addCollider(gridCloth(spec));
+  const WorldState& s = world.impl().state;
+  std::vector<Vec3> goal(world.positions(id).begin(), world.positions(id).end());
+  EXPECT_EQ(colliderTravel(s.kinematics, s.particles, 0, 1.0 / 60), 0.0);
+  for (Vec3& g : goal) g += Vec3(Real(0.03), 0, Real(0.04));
+  world.setColliderTargets(id, goal);
+  EXPECT_NEAR(colliderTravel(s.kinematics, s.particles, 0, 1.0 / 60), 0.05, 1e-6);
+}
+
+TEST(SubstepsForTravel, RaisesToTheCeilingWithinTheMaximumAndCountsTheCap) {
+  SolverSettings settings;
+  settings.substeps = 2;
+  bool capped = true;
+  // Within the limit per substep: the setting.
+  EXPECT_EQ(substepsForTravel(settings, 0.02, 0.01, capped), 2);
+  EXPECT_FALSE(capped);
+  EXPECT_EQ(substepsForTravel(settings, 0.0201, 0.01, capped), 3);
+  EXPECT_EQ(substepsForTravel(settings, 0.1, 0.01, capped), 10);
+  EXPECT_FALSE(capped);
+  // The default maximum: 8 × substeps, at least 16.
+  EXPECT_EQ(substepsForTravel(settings, 1.0, 0.01, capped), 16);
+  EXPECT_TRUE(capped);
+  settings.maxSubsteps = 40;
+  EXPECT_EQ(substepsForTravel(settings, 1.0, 0.01, capped), 40);
+  EXPECT_TRUE(capped);
+  // Off, and a travel that is not a number: the setting, not capped.
+  EXPECT_EQ(substepsForTravel(settings, 1.0, 0, capped), 2);
+  EXPECT_FALSE(capped);
+  EXPECT_EQ(substepsForTravel(settings, std::numeric_limits<double>::quiet_NaN(), 0.01, capped), 2);
+  EXPECT_FALSE(capped);
+  // A maximum below the setting never lowers it.
+  settings.maxSubsteps = 1;
+  EXPECT_EQ(substepsForTravel(settings, 1.0, 0.01, capped), 2);
+}
+
+// A panel whose far edge moves 1 m × 2π per second = 0.105 m per step at 60 steps per second,
+// against particles of 5 mm thickness: the panel's own thickness (the default 1 cm) plus theirs
+// is the contact distance, and each step takes ceil(travel / (0.75 × that)) substeps: 10.
+TEST(ColliderSubsteps, AStepTakesWhatItsFastestColliderPointNeeds) {
+  World world;
+  SolverSettings settings = test::solverSettings(SolverKind::GaussSeidel, 2, 2);
+  world.setSolver(settings);
+  const ObjectId panel = world.addCollider(spinningPanel(1.0, 1));
+  world.addParticles(farCloud());
+  world.step(1.0 / 60);
+  const WorldState& s = world.impl().state;
+  const double contact = double(world.thickness(panel)) + double(Real(0.005));
+  ASSERT_EQ(s.colliderContactDistance, contact);
+  const double travel = colliderTravel(s.kinematics, s.particles, 0, 1.0 / 60);
+  const auto expected = static_cast<std::uint64_t>(std::ceil(travel / (0.75 * contact)));
+  ASSERT_GT(expected, 2u);
+  ASSERT_LE(expected, 16u);
+  EXPECT_EQ(world.profile().substeps, expected);
+  EXPECT_EQ(world.collisionReport().raisedSubstepSteps, 1u);
+  EXPECT_EQ(world.collisionReport().mostSubsteps, expected);
+  EXPECT_EQ(world.collisionReport().cappedSubstepSteps, 0u);
+  // The collider lands exactly on its track all the same: at the step's end, the pose of t = 1/60.
+  std::vector<Vec3> posed(world.positions(panel).size());
+  posePositions(s.kinematics.tracks[0],
+                std::span<const Vec3>(s.particles.restPosition).subspan(0, posed.size()), 1.0 / 60,
+                posed);
+  for (std::size_t i = 0; i < posed.size(); ++i) EXPECT_EQ(world.positions(panel)[i], posed[i]);
+}
+
+TEST(ColliderSubsteps, StayAsSetWhenOffSlowOrAlone) {
+  // Off: the setting.
+  {
+    World world;
+    SolverSettings settings = test::solverSettings(SolverKind::GaussSeidel, 2, 2);
+    settings.maxColliderTravel = 0;
+    world.setSolver(settings);
+    world.addCollider(spinningPanel(1.0, 1));
+    world.addParticles(farCloud());
+    test::simulate(world, 3, 1.0 / 60);
+    EXPECT_EQ(world.profile().substeps, 6u);
+    EXPECT_EQ(world.collisionReport().raisedSubstepSteps, 0u);
+  }
+  // Slow: a twentieth of a turn per second moves the far edge 5 mm per step.
+  {
+    World world;
+    world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 2, 2));
+    world.addCollider(spinningPanel(1.0, 0.05));
+    world.addParticles(farCloud());
+    test::simulate(world, 3, 1.0 / 60);
+    EXPECT_EQ(world.profile().substeps, 6u);
+    EXPECT_EQ(world.collisionReport().mostSubsteps, 2u);
+  }
+  // A fast collider with nothing that moves: nothing to outrun.
+  {
+    World world;
+    world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 2, 2));
+    world.addCollider(spinningPanel(1.0, 1));
+    test::simulate(world, 3, 1.0 / 60);
+    EXPECT_EQ(world.profile().substeps, 6u);
+  }
+  // A limit set by hand: 1 cm per substep.
+  {
+    World world;
+    SolverSettings settings = test::solverSettings(SolverKind::GaussSeidel, 2, 2);
+    settings.maxColliderTravel = Real(0.01);
+    world.setSolver(settings);
+    world.addCollider(spinningPanel(1.0, 1));
+    world.addParticles(farCloud());
+    world.step(1.0 / 60);
+    const WorldState& s = world.impl().state;
+    EXPECT_EQ(world.profile().substeps,
+              static_cast<std::uint64_t>(
+                  std::ceil(colliderTravel(s.kinematics, s.particles, 0, 1.0 / 60) / 0.01)));
+  }
+}
+
+TEST(ColliderSubsteps, BadSettingsAreRejectedWithAClearMessage) {
+  World world;
+  SolverSettings settings;
+  settings.maxColliderTravel = std::numeric_limits<Real>::quiet_NaN();
+  EXPECT_THROW(world.setSolver(settings), std::invalid_argument);
+  settings.maxColliderTravel = -1;
+  settings.maxSubsteps = -3;
+  EXPECT_THROW(world.setSolver(settings), std::invalid_argument);
+  settings.maxSubsteps = 20000;
+  EXPECT_THROW(world.setSolver(settings), std::invalid_argument);
+  EXPECT_NE(test::sceneError(R"({"solver": {"max_collider_travel": -0.5},
+      "objects": [{"type": "particles", "shape": {"points": [[0, 0, 0]]}}]})"),
+            "");
+  EXPECT_NE(test::sceneError(R"({"solver": {"max_substeps": 1.5},
+      "objects": [{"type": "particles", "shape": {"points": [[0, 0, 0]]}}]})"),
+            "");
+}
+
+}  // namespace
+}  // namespace nucleon
