@@ -157,7 +157,12 @@ class PrimitiveBvh {
   // Pairs found by each thread of the arena (by its index in it), and last a list shared by
   // threads outside the arena, as first << 32 | second, before they are put in order.
   std::vector<std::vector<std::uint64_t>> threadPairs;
-  std::vector<std::vector<std::uint64_t>> threadStaging;  // per arena thread: pairs not yet listed
+  // Per arena thread: pairs not yet listed, each list's header on a cache line of its own (the
+  // threads append to them on every kept pair: adjacent headers would share a line between cores).
+  struct alignas(64) StagedPairs {
+    std::vector<std::uint64_t> keys;
+  };
+  std::vector<StagedPairs> threadStaging;
   // Incremental re-detection: which particles got a new (held) path, the primitives with one
   // (points, edges, triangles), the new pairs of each kind, and the merged pair lists.
   std::vector<std::uint8_t> grownParticle;

@@ -176,7 +176,7 @@ struct PairFilter {
   const Real* w;
   const Index* isolatedPoints;  // tree primitive → point, for the IsolatedPoints tree
   ThreadPairs found;
-  std::vector<std::vector<std::uint64_t>>* staging;  // per arena thread, as found.lists
+  std::vector<PrimitiveBvh::StagedPairs>* staging;  // per arena thread, as found.lists
   // The two trees' moving boxes, by tree primitive.
   const BoxEnds *endsA, *endsB;
 };
@@ -184,17 +184,19 @@ struct PairFilter {
 constexpr std::size_t kStagedPairs = 4096;
 
 // Sized like the thread lists, emptied, each with room for kStagedPairs.
-void prepareStaging(std::vector<std::vector<std::uint64_t>>& staging, std::size_t slots) {
+void prepareStaging(std::vector<PrimitiveBvh::StagedPairs>& staging, std::size_t slots) {
   staging.resize(std::max(staging.size(), slots));
-  for (std::vector<std::uint64_t>& stage : staging) stage.clear(), stage.reserve(kStagedPairs);
+  for (PrimitiveBvh::StagedPairs& stage : staging)
+    stage.keys.clear(), stage.keys.reserve(kStagedPairs);
 }
 
 // Moves every staged pair to its thread's list.
-void flushStaging(std::vector<std::vector<std::uint64_t>>& staging,
+void flushStaging(std::vector<PrimitiveBvh::StagedPairs>& staging,
                   std::vector<std::vector<std::uint64_t>>& lists) {
   for (std::size_t slot = 0; slot < staging.size() && slot < lists.size(); ++slot) {
-    lists[slot].insert(lists[slot].end(), staging[slot].begin(), staging[slot].end());
-    staging[slot].clear();
+    std::vector<std::uint64_t>& keys = staging[slot].keys;
+    lists[slot].insert(lists[slot].end(), keys.begin(), keys.end());
+    keys.clear();
   }
 }
 
@@ -256,7 +258,7 @@ void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
     if (!meetInMotion(f.endsA[a[k]], f.endsB[b[k]])) continue;
     const std::uint64_t key = std::uint64_t{first} << 32 | second;
     if (staged) {
-      std::vector<std::uint64_t>& stage = (*f.staging)[static_cast<std::size_t>(slot)];
+      std::vector<std::uint64_t>& stage = (*f.staging)[static_cast<std::size_t>(slot)].keys;
       stage.push_back(key);
       if (stage.size() == kStagedPairs) {
         std::vector<std::uint64_t>& list = (*f.found.lists)[static_cast<std::size_t>(slot)];
