@@ -290,7 +290,7 @@ TEST(KeyframedCollider, LeavesFreeParticlesUntouched) {
     World world;
     // The same substeps either way: none added for the turning panel's speed.
     SolverSettings settings = test::solverSettings(SolverKind::GaussSeidel, 2, 4);
-    settings.maxColliderTravel = 0;
+    settings.maxKinematicTravel = 0;
     world.setSolver(settings);
     world.addCollider(collider);
     const ObjectId id = world.addParticles(cloud);

@@ -90,7 +90,7 @@ TEST(PropellerWithoutRaisedSubsteps, NeverCrashesRepairsOrIntersects) {
 #else
   const std::string frames = "120";
 #endif
-  const std::vector<std::string> args = {"--substeps", "4",        "--max-collider-travel",
+  const std::vector<std::string> args = {"--substeps", "4",        "--max-kinematic-travel",
                                          "0",          "--frames", frames};
   const nlohmann::json j =
       test::runScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/torture/propeller.json", args)

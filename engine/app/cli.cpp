@@ -38,7 +38,7 @@ const char* kUsage =
     "usage: nucleon run SCENE.json [--frames N] [--substeps S] [--threads T]\n"
     "                              [--solver gauss-seidel|jacobi|colored-gs|multigrid]\n"
     "                              [--iterations K] [--out DIR] [--stats FILE.json]\n"
-    "                              [--render FILE.png] [--quiet] [--max-collider-travel M]\n"
+    "                              [--render FILE.png] [--quiet] [--max-kinematic-travel M]\n"
     "       nucleon bench SCENE|NAME ... [--threads 1,2,..] [--solver a,b] [--iterations K]\n"
     "                              [--steps N] [--warmup W] [--repeats R] [--csv FILE]\n"
     "                              [--lanes avx2,avx512]\n"
@@ -58,10 +58,10 @@ const char* kRunHelp =
     "  --stats FILE      write run statistics as JSON\n"
     "  --render FILE     write a PNG picture of the last frame\n"
     "  --quiet           no progress output\n"
-    "  --max-collider-travel M\n"
-    "                    the farthest (m) an animated collider may move in one substep before\n"
-    "                    a step takes more substeps (0: never; default: 3/4 of the smallest\n"
-    "                    contact distance between a collider and a moving object)\n"
+    "  --max-kinematic-travel M\n"
+    "                    the farthest (m) an animated collider or pin may move in one substep\n"
+    "                    before a step takes more substeps (0: never; default: 3/4 of the\n"
+    "                    smallest contact distance between an animated and a moving object)\n"
     "Flags override the scene file, which overrides the defaults. Bad input: exit code 2.\n";
 
 // An edge this many times its rest length (or longer) in any frame makes a run not clean: the
@@ -97,7 +97,7 @@ struct FailureTally {
 struct RunOptions {
   std::string scene;
   std::optional<int> frames, substeps, threads, iterations;
-  std::optional<double> maxColliderTravel;
+  std::optional<double> maxKinematicTravel;
   std::optional<std::string> solver;
   std::string outDir, statsFile, renderFile;
   bool quiet = false;
@@ -129,8 +129,8 @@ RunOptions parseRun(const std::vector<std::string>& args) {
       o.renderFile = value();
     else if (a == "--quiet")
       o.quiet = true;
-    else if (a == "--max-collider-travel")
-      o.maxColliderTravel = parseNumber(a, value(), 0, 1000);
+    else if (a == "--max-kinematic-travel")
+      o.maxKinematicTravel = parseNumber(a, value(), 0, 1000);
     else if (!a.empty() && a[0] == '-')
       throw UsageError("unknown option '" + a + "'");
     else if (o.scene.empty())
@@ -190,7 +190,8 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
   }
   if (o.frames) scene.frames = *o.frames;
   if (o.substeps) scene.solver.substeps = *o.substeps;
-  if (o.maxColliderTravel) scene.solver.maxColliderTravel = static_cast<Real>(*o.maxColliderTravel);
+  if (o.maxKinematicTravel)
+    scene.solver.maxKinematicTravel = static_cast<Real>(*o.maxKinematicTravel);
   if (o.threads) scene.threads = *o.threads;
   if (o.iterations) {
     scene.solver.iterations = *o.iterations;

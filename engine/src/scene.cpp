@@ -584,16 +584,16 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     const Reader s = top.child("solver");
     s.allowOnly({"type", "iterations", "substeps", "relaxation", "sheet_relaxation",
                  "chebyshev_rho", "sweeps_per_level", "cascade_every", "smoother", "schedule",
-                 "max_collider_travel", "max_substeps"});
+                 "max_kinematic_travel", "max_substeps"});
     const std::string type = s.string("type", toString(scene.solver.kind));
     if (!parseSolverKind(type, scene.solver.kind))
       s.fail(s.at("type"), "unknown solver '" + type + "'");
     scene.solver.iterations = s.integer("iterations", scene.solver.iterations, 0, 100000);
     scene.solver.substeps = s.integer("substeps", scene.solver.substeps, 1, 10000);
     // Negative is the default (derived from the thicknesses), so a file gives 0 (off) or more.
-    if (s.has("max_collider_travel"))
-      scene.solver.maxColliderTravel =
-          static_cast<Real>(s.number("max_collider_travel", 0, 0, 1000));
+    if (s.has("max_kinematic_travel"))
+      scene.solver.maxKinematicTravel =
+          static_cast<Real>(s.number("max_kinematic_travel", 0, 0, 1000));
     scene.solver.maxSubsteps = s.integer("max_substeps", scene.solver.maxSubsteps, 0, 10000);
     scene.solver.relaxation =
         static_cast<Real>(s.number("relaxation", scene.solver.relaxation, 0.01, 1.99));

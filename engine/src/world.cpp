@@ -465,8 +465,8 @@ void World::setSolver(const SolverSettings& settings) {
   require(settings.smoother == SolverKind::GaussSeidel || settings.smoother == SolverKind::Jacobi ||
               settings.smoother == SolverKind::ColoredGaussSeidel,
           "the multigrid smoother must be gauss-seidel, jacobi or colored-gs");
-  require(std::isfinite(settings.maxColliderTravel) && settings.maxColliderTravel < 1e9,
-          "max_collider_travel must be finite (negative: derived from the thicknesses; 0: off)");
+  require(std::isfinite(settings.maxKinematicTravel) && settings.maxKinematicTravel < 1e9,
+          "max_kinematic_travel must be finite (negative: derived from the thicknesses; 0: off)");
   require(settings.maxSubsteps >= 0 && settings.maxSubsteps <= 10000,
           "max_substeps must be in [0, 10000] (0: 8 × substeps, at least 16)");
   impl_->state.solver = settings;
@@ -504,43 +504,43 @@ int substepsForTravel(const SolverSettings& settings, double travel, double limi
 
 namespace {
 
-// The smallest contact distance (summed radii) between a primitive of an animated collider and a
-// primitive of an object that moves; 0 when there is no such pair.
-double smallestColliderContact(const CollisionPrimitives& primitives,
-                               const std::vector<ObjectRecord>& objects,
-                               const KinematicTracks& kinematics) {
+// The smallest contact distance (summed radii) between a primitive of an animated object (an
+// animated collider, or an object with animated pins) and a primitive of an object that moves;
+// 0 when there is no such pair.
+double smallestKinematicContact(const CollisionPrimitives& primitives,
+                                const std::vector<ObjectRecord>& objects,
+                                const KinematicTracks& kinematics) {
   std::vector<std::uint8_t> animated(objects.size(), 0);
   for (const KinematicTrack& track : kinematics.tracks)
-    if (track.particles.empty() && track.object < animated.size()) animated[track.object] = 1;
+    if (track.object < animated.size()) animated[track.object] = 1;
   constexpr double kNone = std::numeric_limits<double>::infinity();
-  double collider = kNone, moving = kNone;
+  double kinematic = kNone, moving = kNone;
   const auto visit = [&](const std::vector<Real>& radius,
                          const std::vector<std::uint32_t>& object) {
     for (std::size_t i = 0; i < radius.size() && i < object.size(); ++i) {
       if (object[i] >= objects.size()) continue;
-      if (animated[object[i]])
-        collider = std::min(collider, double(radius[i]));
-      else if (objects[object[i]].kind != ObjectKind::Collider)
+      if (animated[object[i]]) kinematic = std::min(kinematic, double(radius[i]));
+      if (objects[object[i]].kind != ObjectKind::Collider)
         moving = std::min(moving, double(radius[i]));
     }
   };
   visit(primitives.pointRadius, primitives.pointObject);
   visit(primitives.edgeRadius, primitives.edgeObject);
   visit(primitives.triangleRadius, primitives.triangleObject);
-  return collider < kNone && moving < kNone ? collider + moving : 0;
+  return kinematic < kNone && moving < kNone ? kinematic + moving : 0;
 }
 
-// The substeps of the coming step of dt seconds (SolverSettings::maxColliderTravel), counted in
+// The substeps of the coming step of dt seconds (SolverSettings::maxKinematicTravel), counted in
 // the collision report when raised.
 int substepsOfStep(WorldState& s, double dt) {
   const SolverSettings& settings = s.solver;
-  const double limit = settings.maxColliderTravel < 0
-                           ? kColliderTravelShare * s.colliderContactDistance
-                           : double(settings.maxColliderTravel);
+  const double limit = settings.maxKinematicTravel < 0
+                           ? kKinematicTravelShare * s.kinematicContactDistance
+                           : double(settings.maxKinematicTravel);
   if (s.kinematics.empty() || !(limit > 0)) return settings.substeps;
   bool capped = false;
   const int substeps = substepsForTravel(
-      settings, colliderTravel(s.kinematics, s.particles, s.time, s.time + dt), limit, capped);
+      settings, kinematicTravel(s.kinematics, s.particles, s.time, s.time + dt), limit, capped);
   CollisionReport& report = s.collisionReport;
   report.raisedSubstepSteps += substeps > settings.substeps;
   report.cappedSubstepSteps += capped;
@@ -567,7 +567,7 @@ void World::step(double dt) {
     } else
       s.hierarchies.objects.clear();
     s.plan = buildSweepPlan(s.solver, s.objects, s.constraints, s.particles);
-    s.colliderContactDistance = smallestColliderContact(s.primitives, s.objects, s.kinematics);
+    s.kinematicContactDistance = smallestKinematicContact(s.primitives, s.objects, s.kinematics);
     s.topologyDirty = false;
   }
   if (!impl.arena) {

@@ -53,10 +53,11 @@ struct WorldState {
   PrimitiveContactPool primitiveContacts;
   CollisionReport collisionReport;
   KinematicTracks kinematics;  // static lifetime: one track per animated collider or pin group
-  // The smallest contact distance between a primitive of an animated collider and a primitive
-  // that moves (0: no such pair), rebuilt with the derived tables: the default bound on how far
-  // a collider may travel in one substep derives from it (SolverSettings::maxColliderTravel).
-  double colliderContactDistance = 0;
+  // The smallest contact distance between a primitive of an animated object (collider or pinned)
+  // and a primitive that moves (0: no such pair), rebuilt with the derived tables: the default
+  // bound on how far an animated particle may travel in one substep derives from it
+  // (SolverSettings::maxKinematicTravel).
+  double kinematicContactDistance = 0;
   bool topologyDirty = true;    // incidence, coloring and plan need rebuilding
   Recoveries recoveries;        // repairs since creation
   std::uint64_t stepCount = 0;  // steps taken since creation

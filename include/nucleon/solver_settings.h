@@ -18,14 +18,15 @@ struct SolverSettings {
   SolverKind kind = SolverKind::GaussSeidel;
   int iterations = 10;  // sweeps per substep of every family, when `schedule` is empty
   int substeps = 1;     // substeps per step(dt)
-  // Substeps raised for fast animated colliders (ARCHITECTURE.md §4): a step takes as many
-  // substeps as it needs for no point of an animated collider to travel farther than
-  // `maxColliderTravel` metres in one of them, `substeps` at the least and `maxSubsteps` at the
+  // Substeps raised for fast animation (ARCHITECTURE.md §2): a step takes as many substeps as it
+  // needs for no animated particle (of a collider or a pin group) to travel farther than
+  // `maxKinematicTravel` metres in one of them, `substeps` at the least and `maxSubsteps` at the
   // most. A blade or a box that moves several contact distances in a substep outruns the
-  // contacts and the sweeps that propagate its push: the cloth is caught and stretched.
-  // Negative (the default): kColliderTravelShare of the smallest contact distance between a
-  // collider's primitives and the primitives that move; 0: never raised.
-  Real maxColliderTravel = -1;
+  // contacts and the sweeps that propagate its push: the cloth is caught and stretched; a flag
+  // whipped by its pinned edge folds through itself.
+  // Negative (the default): kKinematicTravelShare of the smallest contact distance between an
+  // animated object's primitives and the primitives that move; 0: never raised.
+  Real maxKinematicTravel = -1;
   // The most substeps a step may be raised to (1–10000); 0 (the default): 8 × substeps, and at
   // least 16. Steps that would need more take this many, and are counted.
   int maxSubsteps = 0;
@@ -67,16 +68,17 @@ struct SolverSettings {
   Schedule schedule;
 };
 
-// The default collider travel per substep as a share of the smallest contact distance between a
-// collider and a moving primitive (SolverSettings::maxColliderTravel). Measured on two scenes of
-// the torture suite at their 2 scene substeps: a 16 cm box driven through a pinned curtain at
-// 3.2 m/s (contact distance 10 mm) ended frames with edges beyond 3× their rest length at 8.9 mm
-// per substep and none at 7.6; a propeller blade striking a sheet at 4.4 m/s (8 mm) at 14.7 mm
-// and none at 12.2.
-constexpr double kColliderTravelShare = 0.75;
+// The default travel of an animated particle per substep as a share of the smallest contact
+// distance between an animated object and a moving primitive (SolverSettings::
+// maxKinematicTravel). Measured on scenes of the torture suite at their 2 scene substeps: a 16 cm
+// box driven through a pinned curtain at 3.2 m/s (contact distance 10 mm) ended frames with edges
+// beyond 3× their rest length at 8.9 mm per substep and none at 7.6; a propeller blade striking
+// a sheet at 4.4 m/s (8 mm) at 14.7 mm and none at 12.2; a flag whipped ±0.2 m by its pinned
+// edge at 4 m/s (10 mm) left crossings unresolved at 8.4 mm and none at 7.4.
+constexpr double kKinematicTravelShare = 0.75;
 
 // The substeps a step of the world takes: `substeps`, raised to what `travel` (the farthest an
-// animated collider's point goes over the step, m) needs for at most `limit` per substep (limit
+// animated particle goes over the step, m) needs for at most `limit` per substep (limit
 // ≤ 0: never raised), and held to the settings' maximum. `capped` says whether the maximum held it.
 int substepsForTravel(const SolverSettings& settings, double travel, double limit, bool& capped);
 

@@ -140,11 +140,10 @@ void finishKinematics(const KinematicTracks& kinematics, ParticlePool& particles
   }
 }
 
-double colliderTravel(const KinematicTracks& kinematics, const ParticlePool& particles, double t0,
-                      double t1) {
+double kinematicTravel(const KinematicTracks& kinematics, const ParticlePool& particles, double t0,
+                       double t1) {
   double farthest = 0;
   for (const KinematicTrack& track : kinematics.tracks) {
-    if (!track.particles.empty()) continue;  // a pin group
     const Index count = track.particleCount;
     if (track.drivenByTargets) {
       if (!track.targetsPending) continue;

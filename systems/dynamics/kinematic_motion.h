@@ -44,13 +44,13 @@ void animateKinematics(KinematicTracks& kinematics, ParticlePool& particles, int
                        int substeps, double endTime, Real h);
 void finishKinematics(const KinematicTracks& kinematics, ParticlePool& particles);
 
-// The farthest any particle of an animated collider travels over the world times [t0, t1]: per
-// particle, the length of its path through kTravelSamples equal parts of the interval (a turn's
-// arc by its chords, at least 99% of it for turns up to half a turn per interval), the largest
-// of them. A collider driven by targets goes in a straight line from where it is to its goal
-// (nowhere without one). Pin groups do not count: they move cloth, they are not hit by it.
+// The farthest any animated particle (of a collider or a pin group) travels over the world times
+// [t0, t1]: per particle, the length of its path through kTravelSamples equal parts of the
+// interval (a turn's arc by its chords, at least 99% of it for turns up to half a turn per
+// interval), the largest of them. A collider driven by targets goes in a straight line from where
+// it is to its goal (nowhere without one).
 constexpr int kTravelSamples = 8;
-double colliderTravel(const KinematicTracks& kinematics, const ParticlePool& particles, double t0,
+double kinematicTravel(const KinematicTracks& kinematics, const ParticlePool& particles, double t0,
                       double t1);
 
 }  // namespace nucleon

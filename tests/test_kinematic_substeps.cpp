@@ -1,6 +1,7 @@
-// Substeps raised for fast animated colliders (SolverSettings::maxColliderTravel): how far a
-// collider travels over a step (the arc of a turn, the line to a target), how many substeps that
-// asks for, and a world that takes them, counts them and leaves slow scenes as they were.
+// Substeps raised for fast animation (SolverSettings::maxKinematicTravel): how far an animated
+// collider or pin group travels over a step (the arc of a turn, the line to a target), how many
+// substeps that asks for, and a world that takes them, counts them and leaves slow scenes as they
+// were.
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -50,7 +51,7 @@ ObjectDef farCloud() {
   return cloud;
 }
 
-TEST(ColliderTravel, IsTheArcOfATurnItsFarthestPointSweeps) {
+TEST(KinematicTravel, IsTheArcOfATurnItsFarthestPointSweeps) {
   World world;
   world.addCollider(spinningPanel(1.0, 2));
   const WorldState& s = world.impl().state;
@@ -58,14 +59,14 @@ TEST(ColliderTravel, IsTheArcOfATurnItsFarthestPointSweeps) {
   // eight chords fall short of it by θ²/(24·64) of it at most (θ the step's turn, 0.21 rad),
   // under 0.01%.
   const double arc = 2 * 2 * kPi / 60;
-  EXPECT_NEAR(colliderTravel(s.kinematics, s.particles, 0.2, 0.2 + 1.0 / 60), arc, 1e-4 * arc);
+  EXPECT_NEAR(kinematicTravel(s.kinematics, s.particles, 0.2, 0.2 + 1.0 / 60), arc, 1e-4 * arc);
   // Half a turn in one interval: the chords still give 99.4% of the arc (sinc of π/16).
-  const double half = colliderTravel(s.kinematics, s.particles, 0, 0.25);
+  const double half = kinematicTravel(s.kinematics, s.particles, 0, 0.25);
   EXPECT_GT(half, 0.99 * kPi);
   EXPECT_LE(half, kPi * (1 + 1e-9));
 }
 
-TEST(ColliderTravel, IsTheLineToATargetAndNothingWithout) {
+TEST(KinematicTravel, IsTheLineToATargetAndNothingWithout) {
   GridSpec spec;
   spec.resolution = {4, 4};
   spec.size = {1, 1};
@@ -74,10 +75,10 @@ TEST(ColliderTravel, IsTheLineToATargetAndNothingWithout) {
   const ObjectId id = world.addCollider(gridCloth(spec));
   const WorldState& s = world.impl().state;
   std::vector<Vec3> goal(world.positions(id).begin(), world.positions(id).end());
-  EXPECT_EQ(colliderTravel(s.kinematics, s.particles, 0, 1.0 / 60), 0.0);
+  EXPECT_EQ(kinematicTravel(s.kinematics, s.particles, 0, 1.0 / 60), 0.0);
   for (Vec3& g : goal) g += Vec3(Real(0.03), 0, Real(0.04));
   world.setColliderTargets(id, goal);
-  EXPECT_NEAR(colliderTravel(s.kinematics, s.particles, 0, 1.0 / 60), 0.05, 1e-6);
+  EXPECT_NEAR(kinematicTravel(s.kinematics, s.particles, 0, 1.0 / 60), 0.05, 1e-6);
 }
 
 TEST(SubstepsForTravel, RaisesToTheCeilingWithinTheMaximumAndCountsTheCap) {
@@ -109,7 +110,7 @@ TEST(SubstepsForTravel, RaisesToTheCeilingWithinTheMaximumAndCountsTheCap) {
 // A panel whose far edge moves 1 m × 2π per second = 0.105 m per step at 60 steps per second,
 // against particles of 5 mm thickness: the panel's own thickness (the default 1 cm) plus theirs
 // is the contact distance, and each step takes ceil(travel / (0.75 × that)) substeps: 10.
-TEST(ColliderSubsteps, AStepTakesWhatItsFastestColliderPointNeeds) {
+TEST(KinematicSubsteps, AStepTakesWhatItsFastestColliderPointNeeds) {
   World world;
   SolverSettings settings = test::solverSettings(SolverKind::GaussSeidel, 2, 2);
   world.setSolver(settings);
@@ -118,8 +119,8 @@ TEST(ColliderSubsteps, AStepTakesWhatItsFastestColliderPointNeeds) {
   world.step(1.0 / 60);
   const WorldState& s = world.impl().state;
   const double contact = double(world.thickness(panel)) + double(Real(0.005));
-  ASSERT_EQ(s.colliderContactDistance, contact);
-  const double travel = colliderTravel(s.kinematics, s.particles, 0, 1.0 / 60);
+  ASSERT_EQ(s.kinematicContactDistance, contact);
+  const double travel = kinematicTravel(s.kinematics, s.particles, 0, 1.0 / 60);
   const auto expected = static_cast<std::uint64_t>(std::ceil(travel / (0.75 * contact)));
   ASSERT_GT(expected, 2u);
   ASSERT_LE(expected, 16u);
@@ -135,12 +136,12 @@ TEST(ColliderSubsteps, AStepTakesWhatItsFastestColliderPointNeeds) {
   for (std::size_t i = 0; i < posed.size(); ++i) EXPECT_EQ(world.positions(panel)[i], posed[i]);
 }
 
-TEST(ColliderSubsteps, StayAsSetWhenOffSlowOrAlone) {
+TEST(KinematicSubsteps, StayAsSetWhenOffSlowOrAlone) {
   // Off: the setting.
   {
     World world;
     SolverSettings settings = test::solverSettings(SolverKind::GaussSeidel, 2, 2);
-    settings.maxColliderTravel = 0;
+    settings.maxKinematicTravel = 0;
     world.setSolver(settings);
     world.addCollider(spinningPanel(1.0, 1));
     world.addParticles(farCloud());
@@ -170,7 +171,7 @@ TEST(ColliderSubsteps, StayAsSetWhenOffSlowOrAlone) {
   {
     World world;
     SolverSettings settings = test::solverSettings(SolverKind::GaussSeidel, 2, 2);
-    settings.maxColliderTravel = Real(0.01);
+    settings.maxKinematicTravel = Real(0.01);
     world.setSolver(settings);
     world.addCollider(spinningPanel(1.0, 1));
     world.addParticles(farCloud());
@@ -178,21 +179,51 @@ TEST(ColliderSubsteps, StayAsSetWhenOffSlowOrAlone) {
     const WorldState& s = world.impl().state;
     EXPECT_EQ(world.profile().substeps,
               static_cast<std::uint64_t>(
-                  std::ceil(colliderTravel(s.kinematics, s.particles, 0, 1.0 / 60) / 0.01)));
+                  std::ceil(kinematicTravel(s.kinematics, s.particles, 0, 1.0 / 60) / 0.01)));
   }
 }
 
-TEST(ColliderSubsteps, BadSettingsAreRejectedWithAClearMessage) {
+// A pinned edge moved 0.1 m in a step of 1/60 s drags its self-colliding cloth: the contact
+// distance is the cloth's thickness twice (its pinned primitives against its own free ones),
+// 2 × 5 mm, and the step takes ceil(0.1 / 7.5 mm) = 14 substeps.
+TEST(KinematicSubsteps, AFastPinGroupRaisesThemToo) {
+  GridSpec spec;
+  spec.resolution = {6, 6};
+  spec.size = {0.5, 0.5};
+  spec.center = Vec3(0, 1, 0);
+  spec.vertical = true;
+  ObjectDef flag = gridCloth(spec);
+  flag.material.thickness = Real(0.005);
+  flag.material.selfCollision = true;
+  PinGroup edge;
+  for (Index i = 0; i < 6; ++i) edge.vertices.push_back(i);
+  Keyframe start, end;
+  end.time = 1.0;
+  end.translation = Vec3d(6, 0, 0);  // 0.1 m per step of 1/60 s
+  edge.motion.keyframes = {start, end};
+  flag.pinGroups.push_back(edge);
+  World world;
+  world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 2, 2));
+  world.addCloth(flag);
+  world.step(1.0 / 60);
+  const WorldState& s = world.impl().state;
+  EXPECT_EQ(s.kinematicContactDistance, 2 * double(Real(0.005)));
+  EXPECT_NEAR(kinematicTravel(s.kinematics, s.particles, 0, 1.0 / 60), 0.1, 1e-9);
+  EXPECT_EQ(world.profile().substeps, 14u);
+  EXPECT_EQ(world.collisionReport().raisedSubstepSteps, 1u);
+}
+
+TEST(KinematicSubsteps, BadSettingsAreRejectedWithAClearMessage) {
   World world;
   SolverSettings settings;
-  settings.maxColliderTravel = std::numeric_limits<Real>::quiet_NaN();
+  settings.maxKinematicTravel = std::numeric_limits<Real>::quiet_NaN();
   EXPECT_THROW(world.setSolver(settings), std::invalid_argument);
-  settings.maxColliderTravel = -1;
+  settings.maxKinematicTravel = -1;
   settings.maxSubsteps = -3;
   EXPECT_THROW(world.setSolver(settings), std::invalid_argument);
   settings.maxSubsteps = 20000;
   EXPECT_THROW(world.setSolver(settings), std::invalid_argument);
-  EXPECT_NE(test::sceneError(R"({"solver": {"max_collider_travel": -0.5},
+  EXPECT_NE(test::sceneError(R"({"solver": {"max_kinematic_travel": -0.5},
       "objects": [{"type": "particles", "shape": {"points": [[0, 0, 0]]}}]})"),
             "");
   EXPECT_NE(test::sceneError(R"({"solver": {"max_substeps": 1.5},
