@@ -48,17 +48,19 @@ TEST_P(EveryTortureScene, IsCleanInEveryFrame) {
 }
 
 // The cases not clean yet (torture/unsolved/), at their default settings, still never crash,
-// repair, produce NaN or end a frame with intersecting triangles or a particle inside the ground;
-// their overstretched edges are what is not solved. The first half second takes a sheet through
-// its drape onto a box (the sanitizer build looks only for memory and undefined-behaviour errors
-// on the way).
-TEST(UnsolvedTortureScenes, NeverCrashRepairOrIntersect) {
+// repair, produce NaN or end a frame with a particle inside the ground; what is not solved is
+// theirs to show: overstretched edges (a 128² sheet on a box's corners, a sheet striking a post
+// at 8 m/s) and intersecting triangles (a curtain squeezed between two boxes to less than its
+// contact distances, from frame 30 on). The float build runs the first 40 frames (the sheet's
+// strike included), the double build 15, the sanitizer build 4 (memory and undefined-behaviour
+// errors only).
+TEST(UnsolvedTortureScenes, NeverCrashRepairOrGoNonFinite) {
 #if defined(__SANITIZE_ADDRESS__)
   const std::string frames = "4";
 #elif defined(NUCLEON_DOUBLE)
   const std::string frames = "15";
 #else
-  const std::string frames = "30";
+  const std::string frames = "40";
 #endif
   const std::filesystem::path folder =
       std::filesystem::path(NUCLEON_ASSETS_DIR) / "scenes" / "torture" / "unsolved";
@@ -68,9 +70,7 @@ TEST(UnsolvedTortureScenes, NeverCrashRepairOrIntersect) {
     const std::vector<std::string> args = {"--frames", frames};
     const nlohmann::json j = test::runScene((folder / (name + ".json")).string(), args).stats;
     ASSERT_FALSE(j.is_null()) << name;
-    const nlohmann::json& failures = j.at("failures");
-    EXPECT_EQ(failures.at("frames_with_intersections").get<long long>(), 0) << name;
-    EXPECT_EQ(failures.at("frames_inside_colliders").get<long long>(), 0) << name;
+    EXPECT_EQ(j.at("failures").at("frames_inside_colliders").get<long long>(), 0) << name;
     EXPECT_EQ(j.at("recoveries").get<long long>(), 0) << name;
     EXPECT_EQ(j.at("nan_count").get<long long>(), 0) << name;
   }
