@@ -75,8 +75,10 @@ class World {
   void setThreads(int threads);
   int threads() const;
 
-  // Advances by dt seconds in solver().substeps substeps. dt must be finite and in (0, 1] s;
-  // anything else throws std::invalid_argument and leaves the state untouched.
+  // Advances by dt seconds in solver().substeps substeps, or more where an animated collider or
+  // pin group would otherwise move farther than SolverSettings::maxKinematicTravel in one
+  // (counted in collisionReport()). dt must be finite and in (0, 1] s; anything else throws
+  // std::invalid_argument and leaves the state untouched.
   void step(double dt);
   // Simulated seconds since the world was created: the time motions' keyframes refer to.
   double time() const;
