@@ -213,6 +213,41 @@ TEST(KinematicSubsteps, AFastPinGroupRaisesThemToo) {
   EXPECT_EQ(world.collisionReport().raisedSubstepSteps, 1u);
 }
 
+// Colliders moved by a constant velocity or by targets count as well: a panel 0.1 m per step
+// against particles of 5 mm thickness (contact distance 1 cm + 5 mm) takes ceil(0.1 / 11.25 mm)
+// = 9 substeps either way.
+TEST(KinematicSubsteps, AColliderMovedByVelocityOrTargetsRaisesThemToo) {
+  GridSpec spec;
+  spec.resolution = {4, 4};
+  spec.size = {1, 1};
+  spec.center = Vec3(0, 1, 0);
+  spec.vertical = true;
+  {
+    ObjectDef panel = gridCloth(spec);
+    panel.velocity = Vec3(6, 0, 0);
+    World world;
+    world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 2, 2));
+    world.addCollider(panel);
+    world.addParticles(farCloud());
+    world.step(1.0 / 60);
+    EXPECT_EQ(world.profile().substeps, 9u);
+  }
+  {
+    World world;
+    world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 2, 2));
+    const ObjectId panel = world.addCollider(gridCloth(spec));
+    world.addParticles(farCloud());
+    world.step(1.0 / 60);  // still: the setting
+    EXPECT_EQ(world.profile().substeps, 2u);
+    std::vector<Vec3> goal(world.positions(panel).begin(), world.positions(panel).end());
+    for (Vec3& g : goal) g += Vec3(Real(0.1), 0, 0);
+    world.setColliderTargets(panel, goal);
+    world.step(1.0 / 60);
+    EXPECT_EQ(world.profile().substeps, 2u + 9u);
+    for (std::size_t i = 0; i < goal.size(); ++i) EXPECT_EQ(world.positions(panel)[i], goal[i]);
+  }
+}
+
 TEST(KinematicSubsteps, BadSettingsAreRejectedWithAClearMessage) {
   World world;
   SolverSettings settings;

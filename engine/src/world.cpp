@@ -504,15 +504,37 @@ int substepsForTravel(const SolverSettings& settings, double travel, double limi
 
 namespace {
 
-// The smallest contact distance (summed radii) between a primitive of an animated object (an
-// animated collider, or an object with animated pins) and a primitive of an object that moves;
-// 0 when there is no such pair.
+// The farthest a collider moving at a constant velocity goes in dt seconds.
+double constantVelocityTravel(const std::vector<ObjectRecord>& objects,
+                              const KinematicTracks& kinematics, const ParticlePool& particles,
+                              double dt) {
+  double farthest = 0;
+  for (std::size_t o = 0; o < objects.size(); ++o) {
+    if (objects[o].kind != ObjectKind::Collider) continue;
+    const bool tracked =
+        std::any_of(kinematics.tracks.begin(), kinematics.tracks.end(),
+                    [&](const KinematicTrack& track) { return track.object == o; });
+    if (tracked) continue;
+    const ObjectRecord& object = objects[o];
+    for (Index i = object.firstParticle; i < object.firstParticle + object.particleCount; ++i)
+      if (particles.w[i] == 0) farthest = std::max(farthest, double(particles.v[i].norm()) * dt);
+  }
+  return farthest;
+}
+
+// The smallest contact distance (summed radii) between a primitive of an object that may be
+// animated (a collider, or an object with animated pins) and a primitive of an object that
+// moves; 0 when there is no such pair.
 double smallestKinematicContact(const CollisionPrimitives& primitives,
                                 const std::vector<ObjectRecord>& objects,
                                 const KinematicTracks& kinematics) {
+  // Every collider counts (one still now may be given a velocity's worth of targets later, and
+  // targets add no track until then), and every object with animated pins.
   std::vector<std::uint8_t> animated(objects.size(), 0);
   for (const KinematicTrack& track : kinematics.tracks)
     if (track.object < animated.size()) animated[track.object] = 1;
+  for (std::size_t o = 0; o < objects.size(); ++o)
+    animated[o] |= objects[o].kind == ObjectKind::Collider;
   constexpr double kNone = std::numeric_limits<double>::infinity();
   double kinematic = kNone, moving = kNone;
   const auto visit = [&](const std::vector<Real>& radius,
@@ -537,10 +559,11 @@ int substepsOfStep(WorldState& s, double dt) {
   const double limit = settings.maxKinematicTravel < 0
                            ? kKinematicTravelShare * s.kinematicContactDistance
                            : double(settings.maxKinematicTravel);
-  if (s.kinematics.empty() || !(limit > 0)) return settings.substeps;
+  if (!(limit > 0)) return settings.substeps;
+  const double travel = std::max(kinematicTravel(s.kinematics, s.particles, s.time, s.time + dt),
+                                 constantVelocityTravel(s.objects, s.kinematics, s.particles, dt));
   bool capped = false;
-  const int substeps = substepsForTravel(
-      settings, kinematicTravel(s.kinematics, s.particles, s.time, s.time + dt), limit, capped);
+  const int substeps = substepsForTravel(settings, travel, limit, capped);
   CollisionReport& report = s.collisionReport;
   report.raisedSubstepSteps += substeps > settings.substeps;
   report.cappedSubstepSteps += capped;

@@ -19,13 +19,14 @@ struct SolverSettings {
   int iterations = 10;  // sweeps per substep of every family, when `schedule` is empty
   int substeps = 1;     // substeps per step(dt)
   // Substeps raised for fast animation (ARCHITECTURE.md §2): a step takes as many substeps as it
-  // needs for no animated particle (of a collider or a pin group) to travel farther than
+  // needs for no kinematic particle (of a collider, animated, moved by targets or by a velocity,
+  // or of an animated pin group) to travel farther than
   // `maxKinematicTravel` metres in one of them, `substeps` at the least and `maxSubsteps` at the
   // most. A blade or a box that moves several contact distances in a substep outruns the
   // contacts and the sweeps that propagate its push: the cloth is caught and stretched; a flag
   // whipped by its pinned edge folds through itself.
-  // Negative (the default): kKinematicTravelShare of the smallest contact distance between an
-  // animated object's primitives and the primitives that move; 0: never raised.
+  // Negative (the default): kKinematicTravelShare of the smallest contact distance between a
+  // collider's or a pinned object's primitives and the primitives that move; 0: never raised.
   Real maxKinematicTravel = -1;
   // The most substeps a step may be raised to (1–10000); 0 (the default): 8 × substeps, and at
   // least 16. Steps that would need more take this many, and are counted.

@@ -75,8 +75,8 @@ class World {
   void setThreads(int threads);
   int threads() const;
 
-  // Advances by dt seconds in solver().substeps substeps, or more where an animated collider or
-  // pin group would otherwise move farther than SolverSettings::maxKinematicTravel in one
+  // Advances by dt seconds in solver().substeps substeps, or more where a moving collider or an
+  // animated pin group would otherwise go farther than SolverSettings::maxKinematicTravel in one
   // (counted in collisionReport()). dt must be finite and in (0, 1] s; anything else throws
   // std::invalid_argument and leaves the state untouched.
   void step(double dt);
