@@ -248,6 +248,31 @@ TEST(KinematicSubsteps, AColliderMovedByVelocityOrTargetsRaisesThemToo) {
   }
 }
 
+// A cloth finer than its contact distance is warned of, by name: 1 m at 101 vertices a side is
+// 10 mm edges (the median; the diagonals are longer); 5 mm thick with self-collision is a 10 mm
+// contact distance, 6 mm thick 12 mm. No warning without anything to collide with.
+TEST(ClothWarnings, NameAClothFinerThanItsContactDistance) {
+  const auto warningsOf = [](Real thickness, bool self) {
+    GridSpec spec;
+    spec.resolution = {101, 101};
+    spec.size = {1, 1};
+    ObjectDef cloth = gridCloth(spec);
+    cloth.name = "fine";
+    cloth.material.thickness = thickness;
+    cloth.material.selfCollision = self;
+    World world;
+    world.addCloth(cloth);
+    return world.warnings();
+  };
+  EXPECT_TRUE(warningsOf(Real(0.004), true).empty());
+  const std::vector<std::string> thick = warningsOf(Real(0.006), true);
+  ASSERT_EQ(thick.size(), 1u);
+  EXPECT_EQ(thick[0].rfind("fine: contact distance 12 mm exceeds the median edge length 10 mm", 0),
+            0u)
+      << thick[0];
+  EXPECT_TRUE(warningsOf(Real(0.006), false).empty());
+}
+
 TEST(KinematicSubsteps, BadSettingsAreRejectedWithAClearMessage) {
   World world;
   SolverSettings settings;

@@ -37,6 +37,7 @@ TEST_P(EveryTortureScene, IsCleanInEveryFrame) {
   EXPECT_EQ(j.at("recoveries").get<long long>(), 0) << j.at("recoveries_by_kind").dump();
   EXPECT_EQ(j.at("nan_count").get<long long>(), 0);
   EXPECT_TRUE(failures.at("clean").get<bool>()) << run.summary;
+  EXPECT_TRUE(j.at("warnings").empty()) << j.at("warnings").dump();
   // The not-clean threshold is an edge at 3 times its rest length. The worst frames measured
   // here are impacts at 2 substeps (a sheet dropped on a needle or a box's corners, a sheet's
   // halves striking the ground edge first at 3 m/s), where an edge reaches up to 2.4 times its
@@ -74,6 +75,21 @@ TEST(UnsolvedTortureScenes, NeverCrashRepairOrGoNonFinite) {
     EXPECT_EQ(j.at("recoveries").get<long long>(), 0) << name;
     EXPECT_EQ(j.at("nan_count").get<long long>(), 0) << name;
   }
+}
+
+// The 128² drape's cloth is finer than its contact distance: the run says so before it starts
+// (World::warnings), naming the cloth; the same sheet at 64² (box_turntable) has no warning.
+TEST(UnsolvedTortureScenes, TheFineDrapeIsWarnedOf) {
+  const nlohmann::json j = test::runScene(std::string(NUCLEON_ASSETS_DIR) +
+                                              "/scenes/torture/unsolved/box_turntable_128.json",
+                                          {"--frames", "1"})
+                               .stats;
+  ASSERT_FALSE(j.is_null());
+  ASSERT_EQ(j.at("warnings").size(), 1u);
+  const std::string line = j.at("warnings")[0].get<std::string>();
+  EXPECT_EQ(line.rfind("sheet: contact distance 10 mm exceeds the median edge length 9.45 mm", 0),
+            0u)
+      << line;
 }
 
 // The propeller at a fixed 4 substeps (no substeps added for its blade, which moves 18 mm per

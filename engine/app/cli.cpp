@@ -210,7 +210,10 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
     throw UsageError(e.what());
   }
 
-  // Input is valid: from here on outputs are written.
+  // Input is valid: from here on outputs are written. Advice on the scene comes first, quiet or
+  // not: it says why a run may turn out not clean.
+  const std::vector<std::string> warnings = world.warnings();
+  for (const std::string& line : warnings) err << "warning: " << line << '\n';
   if (!o.outDir.empty()) fs::create_directories(o.outDir);
   const double dt = 1.0 / scene.fps;
   nlohmann::json perFrame = nlohmann::json::array(), energy = nlohmann::json::array();
@@ -319,6 +322,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
       {"volume_ratio", m.volumeRatio >= 0 ? nlohmann::json(m.volumeRatio) : nlohmann::json()},
       {"energy", energy},
       {"state_hash", hex16(world.stateHash())},
+      {"warnings", warnings},
       {"per_frame", perFrame}};
   // Multigrid's fine-sweep backend (scene key solver.smoother).
   if (scene.solver.kind == SolverKind::Multigrid)

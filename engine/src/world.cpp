@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <numeric>
 #include <sstream>
@@ -703,6 +704,43 @@ std::span<const std::array<Index, 2>> World::curveEdges(ObjectId id) const {
 }
 Real World::thickness(ObjectId id) const {
   return lookup(*impl_, id).material.thickness;
+}
+
+std::vector<std::string> World::warnings() const {
+  const WorldState& s = impl_->state;
+  Real thickestCollider = 0;
+  for (const ObjectRecord& o : s.objects)
+    if (o.kind == ObjectKind::Collider)
+      thickestCollider = std::max(thickestCollider, o.material.thickness);
+  std::vector<std::string> lines;
+  for (const ObjectRecord& o : s.objects) {
+    if (o.kind != ObjectKind::Cloth || o.surface.empty()) continue;
+    const Real r = o.material.thickness;
+    const Real contact = std::max(o.material.selfCollision ? 2 * r : Real(0),
+                                  thickestCollider > 0 ? r + thickestCollider : Real(0));
+    if (!(contact > 0)) continue;
+    // The median of the triangles' edge lengths: a grid's diagonals and one degenerate edge do
+    // not move it.
+    std::vector<double> lengths;
+    lengths.reserve(3 * o.surface.size());
+    for (const auto& t : o.surface)
+      for (int k = 0; k < 3; ++k)
+        lengths.push_back((s.particles.restPosition[o.firstParticle + t[k]] -
+                           s.particles.restPosition[o.firstParticle + t[(k + 1) % 3]])
+                              .cast<double>()
+                              .norm());
+    const auto middle = lengths.begin() + static_cast<std::ptrdiff_t>(lengths.size() / 2);
+    std::nth_element(lengths.begin(), middle, lengths.end());
+    const double medianEdge = *middle;
+    if (!(double(contact) > medianEdge)) continue;
+    std::ostringstream line;
+    line << std::setprecision(3) << o.name << ": contact distance " << contact * 1000
+         << " mm exceeds the median edge length " << medianEdge * 1000
+         << " mm: over a collider's sharp edges the edges that straddle them stretch (a smaller "
+            "thickness or a coarser mesh avoids it)";
+    lines.push_back(line.str());
+  }
+  return lines;
 }
 
 std::size_t World::constraintCount(ConstraintFamily family) const {

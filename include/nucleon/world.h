@@ -97,6 +97,11 @@ class World {
   std::span<const std::array<Index, 3>> surfaceTriangles(ObjectId id) const;
   std::span<const std::array<Index, 2>> curveEdges(ObjectId id) const;  // a rope's segments
   Real thickness(ObjectId id) const;
+  // Advice on the scene as built, one line each, naming the object: a cloth whose contact
+  // distance (its thickness twice with self-collision, or its thickness plus a collider's) exceeds
+  // its median edge length, which over a collider's sharp edges stretches edges that straddle them
+  // (bench/results/2core-AMD-EPYC/torture.md, the 128² drape). Empty when there is none.
+  std::vector<std::string> warnings() const;
 
   std::size_t constraintCount(ConstraintFamily family) const;
 
