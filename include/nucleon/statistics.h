@@ -76,9 +76,10 @@ struct CollisionReport {
   // with those particles pinned, pulling their neighbours back to them.
   std::uint64_t carryRelaxations = 0;
   std::uint64_t unresolvedPairs = 0;  // pairs still crossing at the fail-safe's round limit
-  // Steps that took more substeps than the solver's setting because an animated particle (a
-  // collider's or a pinned one's) moved fast (SolverSettings::maxKinematicTravel), the most substeps any step took, and the steps
-  // that needed more than SolverSettings::maxSubsteps and took that many.
+  // Steps that took more substeps than the solver's setting because a kinematic particle (a
+  // moving collider's or an animated pin) moved fast (SolverSettings::maxKinematicTravel), the
+  // most substeps any step took, and the steps that needed more than SolverSettings::maxSubsteps
+  // and took that many.
   std::uint64_t raisedSubstepSteps = 0;
   std::uint64_t mostSubsteps = 0;
   std::uint64_t cappedSubstepSteps = 0;
