@@ -51,6 +51,6 @@ void finishKinematics(const KinematicTracks& kinematics, ParticlePool& particles
 // it is to its goal (nowhere without one).
 constexpr int kTravelSamples = 8;
 double kinematicTravel(const KinematicTracks& kinematics, const ParticlePool& particles, double t0,
-                      double t1);
+                       double t1);
 
 }  // namespace nucleon
