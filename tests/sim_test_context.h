@@ -23,6 +23,19 @@ inline SolverSettings solverSettings(SolverKind kind, int iterations, int subste
   return s;
 }
 
+// A 4×4 grid panel 1 m square, vertical in the xy plane, centred at `center`: an open mesh for
+// colliders and small cloths.
+inline ObjectDef verticalPanel(const Vec3& center) {
+  GridSpec spec;
+  spec.resolution = {4, 4};
+  spec.size = {1, 1};
+  spec.center = center;
+  spec.vertical = true;
+  ObjectDef def = gridCloth(spec);
+  def.name = "panel";
+  return def;
+}
+
 // A square cloth of n×n vertices, 2 m wide, horizontal at 1 m, pinned at two adjacent corners.
 inline World hangingCloth(int n, int iterations, int substeps = 1, int threads = 0,
                           Real stretchCompliance = 0) {

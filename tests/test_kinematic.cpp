@@ -39,14 +39,7 @@ void expectNear(const Vec3& actual, const Vec3d& expected, const std::string& wh
 
 // A 4×4 grid panel, vertical in the xy plane, centred 1 m right of the pivot: an open mesh.
 ObjectDef panel() {
-  GridSpec spec;
-  spec.resolution = {4, 4};
-  spec.size = {1, 1};
-  spec.center = Vec3(1, 1, 0);
-  spec.vertical = true;
-  ObjectDef def = gridCloth(spec);
-  def.name = "panel";
-  return def;
+  return test::verticalPanel(Vec3(1, 1, 0));
 }
 
 Keyframe key(double time, Vec3d translation, Vec3d axis, double degrees) {

@@ -22,13 +22,7 @@ constexpr double kPi = std::numbers::pi;
 // A 4×4 panel, vertical in the xy plane, its far edge `reach` m from the vertical axis through
 // the pivot (0, 1, 0), turning `turns` times about that axis per second from t = 0 to t = 1.
 ObjectDef spinningPanel(double reach, double turns) {
-  GridSpec spec;
-  spec.resolution = {4, 4};
-  spec.size = {1, 1};
-  spec.center = Vec3(Real(reach - 0.5), 1, 0);
-  spec.vertical = true;
-  ObjectDef def = gridCloth(spec);
-  def.name = "panel";
+  ObjectDef def = test::verticalPanel(Vec3(Real(reach - 0.5), 1, 0));
   def.motion.pivot = Vec3d(0, 1, 0);
   // Keyframes a sixteenth of a turn apart: slerp between them is the uniform turn.
   const int keys = static_cast<int>(std::ceil(16 * turns));
@@ -51,6 +45,19 @@ ObjectDef farCloud() {
   return cloud;
 }
 
+// A world at 2 substeps of 2 sweeps with a panel whose far edge is 1 m from its axis, turning
+// `turns` times a second, and the far cloud unless `alone`; `maxTravel` as
+// SolverSettings::maxKinematicTravel.
+World spinningWorld(double turns, bool alone = false, Real maxTravel = -1) {
+  SolverSettings settings = test::solverSettings(SolverKind::GaussSeidel, 2, 2);
+  settings.maxKinematicTravel = maxTravel;
+  World world;
+  world.setSolver(settings);
+  world.addCollider(spinningPanel(1.0, turns));
+  if (!alone) world.addParticles(farCloud());
+  return world;
+}
+
 TEST(KinematicTravel, IsTheArcOfATurnItsFarthestPointSweeps) {
   World world;
   world.addCollider(spinningPanel(1.0, 2));
@@ -67,12 +74,8 @@ TEST(KinematicTravel, IsTheArcOfATurnItsFarthestPointSweeps) {
 }
 
 TEST(KinematicTravel, IsTheLineToATargetAndNothingWithout) {
-  GridSpec spec;
-  spec.resolution = {4, 4};
-  spec.size = {1, 1};
-  spec.center = Vec3(0, 1, 0);
   World world;
-  const ObjectId id = world.addCollider(gridCloth(spec));
+  const ObjectId id = world.addCollider(test::verticalPanel(Vec3(0, 1, 0)));
   const WorldState& s = world.impl().state;
   std::vector<Vec3> goal(world.positions(id).begin(), world.positions(id).end());
   EXPECT_EQ(kinematicTravel(s.kinematics, s.particles, 0, 1.0 / 60), 0.0);
@@ -111,11 +114,8 @@ TEST(SubstepsForTravel, RaisesToTheCeilingWithinTheMaximumAndCountsTheCap) {
 // against particles of 5 mm thickness: the panel's own thickness (the default 1 cm) plus theirs
 // is the contact distance, and each step takes ceil(travel / (0.75 × that)) substeps: 10.
 TEST(KinematicSubsteps, AStepTakesWhatItsFastestColliderPointNeeds) {
-  World world;
-  SolverSettings settings = test::solverSettings(SolverKind::GaussSeidel, 2, 2);
-  world.setSolver(settings);
-  const ObjectId panel = world.addCollider(spinningPanel(1.0, 1));
-  world.addParticles(farCloud());
+  World world = spinningWorld(1);
+  const ObjectId panel = world.objectAt(0);
   world.step(1.0 / 60);
   const WorldState& s = world.impl().state;
   const double contact = double(world.thickness(panel)) + double(Real(0.005));
@@ -138,49 +138,26 @@ TEST(KinematicSubsteps, AStepTakesWhatItsFastestColliderPointNeeds) {
 
 TEST(KinematicSubsteps, StayAsSetWhenOffSlowOrAlone) {
   // Off: the setting.
-  {
-    World world;
-    SolverSettings settings = test::solverSettings(SolverKind::GaussSeidel, 2, 2);
-    settings.maxKinematicTravel = 0;
-    world.setSolver(settings);
-    world.addCollider(spinningPanel(1.0, 1));
-    world.addParticles(farCloud());
-    test::simulate(world, 3, 1.0 / 60);
-    EXPECT_EQ(world.profile().substeps, 6u);
-    EXPECT_EQ(world.collisionReport().raisedSubstepSteps, 0u);
-  }
+  World off = spinningWorld(1, false, 0);
+  test::simulate(off, 3, 1.0 / 60);
+  EXPECT_EQ(off.profile().substeps, 6u);
+  EXPECT_EQ(off.collisionReport().raisedSubstepSteps, 0u);
   // Slow: a twentieth of a turn per second moves the far edge 5 mm per step.
-  {
-    World world;
-    world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 2, 2));
-    world.addCollider(spinningPanel(1.0, 0.05));
-    world.addParticles(farCloud());
-    test::simulate(world, 3, 1.0 / 60);
-    EXPECT_EQ(world.profile().substeps, 6u);
-    EXPECT_EQ(world.collisionReport().mostSubsteps, 2u);
-  }
+  World slow = spinningWorld(0.05);
+  test::simulate(slow, 3, 1.0 / 60);
+  EXPECT_EQ(slow.profile().substeps, 6u);
+  EXPECT_EQ(slow.collisionReport().mostSubsteps, 2u);
   // A fast collider with nothing that moves: nothing to outrun.
-  {
-    World world;
-    world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 2, 2));
-    world.addCollider(spinningPanel(1.0, 1));
-    test::simulate(world, 3, 1.0 / 60);
-    EXPECT_EQ(world.profile().substeps, 6u);
-  }
+  World alone = spinningWorld(1, true);
+  test::simulate(alone, 3, 1.0 / 60);
+  EXPECT_EQ(alone.profile().substeps, 6u);
   // A limit set by hand: 1 cm per substep.
-  {
-    World world;
-    SolverSettings settings = test::solverSettings(SolverKind::GaussSeidel, 2, 2);
-    settings.maxKinematicTravel = Real(0.01);
-    world.setSolver(settings);
-    world.addCollider(spinningPanel(1.0, 1));
-    world.addParticles(farCloud());
-    world.step(1.0 / 60);
-    const WorldState& s = world.impl().state;
-    EXPECT_EQ(world.profile().substeps,
-              static_cast<std::uint64_t>(
-                  std::ceil(kinematicTravel(s.kinematics, s.particles, 0, 1.0 / 60) / 0.01)));
-  }
+  World byHand = spinningWorld(1, false, Real(0.01));
+  byHand.step(1.0 / 60);
+  const WorldState& s = byHand.impl().state;
+  EXPECT_EQ(byHand.profile().substeps,
+            static_cast<std::uint64_t>(
+                std::ceil(kinematicTravel(s.kinematics, s.particles, 0, 1.0 / 60) / 0.01)));
 }
 
 // A pinned edge moved 0.1 m in a step of 1/60 s drags its self-colliding cloth: the contact
@@ -217,13 +194,8 @@ TEST(KinematicSubsteps, AFastPinGroupRaisesThemToo) {
 // against particles of 5 mm thickness (contact distance 1 cm + 5 mm) takes ceil(0.1 / 11.25 mm)
 // = 9 substeps either way.
 TEST(KinematicSubsteps, AColliderMovedByVelocityOrTargetsRaisesThemToo) {
-  GridSpec spec;
-  spec.resolution = {4, 4};
-  spec.size = {1, 1};
-  spec.center = Vec3(0, 1, 0);
-  spec.vertical = true;
   {
-    ObjectDef panel = gridCloth(spec);
+    ObjectDef panel = test::verticalPanel(Vec3(0, 1, 0));
     panel.velocity = Vec3(6, 0, 0);
     World world;
     world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 2, 2));
@@ -235,7 +207,7 @@ TEST(KinematicSubsteps, AColliderMovedByVelocityOrTargetsRaisesThemToo) {
   {
     World world;
     world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 2, 2));
-    const ObjectId panel = world.addCollider(gridCloth(spec));
+    const ObjectId panel = world.addCollider(test::verticalPanel(Vec3(0, 1, 0)));
     world.addParticles(farCloud());
     world.step(1.0 / 60);  // still: the setting
     EXPECT_EQ(world.profile().substeps, 2u);

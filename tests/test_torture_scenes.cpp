@@ -18,6 +18,20 @@ namespace {
 
 class EveryTortureScene : public testing::TestWithParam<std::string> {};
 
+// The frames a run gets in this build: the float build runs `release`, the double build
+// `doublePrecision`, the sanitizer build (which looks for memory and undefined-behaviour errors
+// only) `sanitizer`.
+std::string framesOfThisBuild([[maybe_unused]] int release, [[maybe_unused]] int doublePrecision,
+                              [[maybe_unused]] int sanitizer) {
+#if defined(__SANITIZE_ADDRESS__)
+  return std::to_string(sanitizer);
+#elif defined(NUCLEON_DOUBLE)
+  return std::to_string(doublePrecision);
+#else
+  return std::to_string(release);
+#endif
+}
+
 TEST_P(EveryTortureScene, IsCleanInEveryFrame) {
   std::vector<std::string> args;
 #if defined(__SANITIZE_ADDRESS__)
@@ -56,13 +70,7 @@ TEST_P(EveryTortureScene, IsCleanInEveryFrame) {
 // strike included), the double build 15, the sanitizer build 4 (memory and undefined-behaviour
 // errors only).
 TEST(UnsolvedTortureScenes, NeverCrashRepairOrGoNonFinite) {
-#if defined(__SANITIZE_ADDRESS__)
-  const std::string frames = "4";
-#elif defined(NUCLEON_DOUBLE)
-  const std::string frames = "15";
-#else
-  const std::string frames = "40";
-#endif
+  const std::string frames = framesOfThisBuild(40, 15, 4);
   const std::filesystem::path folder =
       std::filesystem::path(NUCLEON_ASSETS_DIR) / "scenes" / "torture" / "unsolved";
   const std::vector<std::string> names = test::sceneNamesIn("torture/unsolved");
@@ -99,13 +107,7 @@ TEST(UnsolvedTortureScenes, TheFineDrapeIsWarnedOf) {
 // through without a crash, repair, NaN, intersection or particle inside the ground. The float
 // build runs 120 frames, the double build 60, the sanitizer build 30.
 TEST(PropellerWithoutRaisedSubsteps, NeverCrashesRepairsOrIntersects) {
-#if defined(__SANITIZE_ADDRESS__)
-  const std::string frames = "30";
-#elif defined(NUCLEON_DOUBLE)
-  const std::string frames = "60";
-#else
-  const std::string frames = "120";
-#endif
+  const std::string frames = framesOfThisBuild(120, 60, 30);
   const std::vector<std::string> args = {"--substeps", "4",        "--max-kinematic-travel",
                                          "0",          "--frames", frames};
   const nlohmann::json j =

@@ -75,18 +75,35 @@ Vec3d bendPoint(const BendMotion& bend, double kappa, const Vec3d& r) {
 
 namespace {
 
+// A track's pose at one time, ready to place points: its rotation as a matrix, where the pivot
+// goes, and the bend's curvature.
+struct PoseAt {
+  Eigen::Matrix3d rotation;
+  Vec3d shift;
+  double kappa;
+};
+
+PoseAt poseAt(const KinematicTrack& track, double t) {
+  const RigidPose pose = keyframePose(track, t);
+  return {pose.rotation.toRotationMatrix(), track.pivot + pose.translation,
+          bendCurvature(track.bend, t)};
+}
+
+// Where `pose` puts the point whose rest position is `rest`: bent, then turned about the pivot
+// and moved.
+Vec3d placed(const KinematicTrack& track, const PoseAt& pose, const Vec3d& rest) {
+  Vec3d r = rest - track.pivot;
+  if (pose.kappa != 0) r = bendPoint(track.bend, pose.kappa, r);
+  return pose.rotation * r + pose.shift;
+}
+
 // Poses `count` particles with the track's motion at time t: `rest(i)` is the i-th one's rest
 // position.
 template <typename RestOf>
 void poseEach(const KinematicTrack& track, Index count, RestOf&& rest, double t, Vec3* out) {
-  const RigidPose pose = keyframePose(track, t);
-  const Eigen::Matrix3d rotation = pose.rotation.toRotationMatrix();
-  const Vec3d shift = track.pivot + pose.translation;
-  const double kappa = bendCurvature(track.bend, t);
+  const PoseAt pose = poseAt(track, t);
   forEachParticle(count, [&](Index i) {
-    Vec3d r = rest(i).template cast<double>() - track.pivot;
-    if (kappa != 0) r = bendPoint(track.bend, kappa, r);
-    out[i] = (rotation * r + shift).cast<Real>();
+    out[i] = placed(track, pose, rest(i).template cast<double>()).template cast<Real>();
   });
 }
 
@@ -154,31 +171,19 @@ double kinematicTravel(const KinematicTracks& kinematics, const ParticlePool& pa
       continue;
     }
     // The pose at each sample time, then every particle along them.
-    std::array<Eigen::Matrix3d, kTravelSamples + 1> rotation;
-    std::array<Vec3d, kTravelSamples + 1> shift;
-    std::array<double, kTravelSamples + 1> kappa;
-    for (int k = 0; k <= kTravelSamples; ++k) {
-      const double t = t0 + (t1 - t0) * k / kTravelSamples;
-      const RigidPose pose = keyframePose(track, t);
-      rotation[k] = pose.rotation.toRotationMatrix();
-      shift[k] = track.pivot + pose.translation;
-      kappa[k] = bendCurvature(track.bend, t);
-    }
-    const auto posed = [&](const Vec3d& rest, int k) {
-      Vec3d r = rest - track.pivot;
-      if (kappa[k] != 0) r = bendPoint(track.bend, kappa[k], r);
-      return Vec3d(rotation[k] * r + shift[k]);
-    };
+    std::array<PoseAt, kTravelSamples + 1> poses;
+    for (int k = 0; k <= kTravelSamples; ++k)
+      poses[k] = poseAt(track, t0 + (t1 - t0) * k / kTravelSamples);
     // The largest of per-particle lengths: the same for any split of the particles.
     const double trackFarthest = tbb::parallel_reduce(
         tbb::blocked_range<Index>(0, count, kGrain), 0.0,
         [&](const tbb::blocked_range<Index>& r, double most) {
           for (Index i = r.begin(); i != r.end(); ++i) {
             const Vec3d rest = particles.restPosition[track.particle(i)].cast<double>();
-            Vec3d previous = posed(rest, 0);
+            Vec3d previous = placed(track, poses[0], rest);
             double length = 0;
             for (int k = 1; k <= kTravelSamples; ++k) {
-              const Vec3d next = posed(rest, k);
+              const Vec3d next = placed(track, poses[k], rest);
               length += (next - previous).norm();
               previous = next;
             }
