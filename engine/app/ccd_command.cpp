@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <ostream>
 #include <sstream>
 
@@ -27,6 +28,7 @@ const char* const kCcdHelp =
 
 namespace {
 
+using cli::parseNumber;
 using cli::UsageError;
 using Clock = std::chrono::steady_clock;
 
@@ -45,14 +47,6 @@ struct CcdOptions {
   double thickness = 0;
 };
 
-double parseThickness(const std::string& value) {
-  char* end = nullptr;
-  const double x = std::strtod(value.c_str(), &end);
-  if (value.empty() || end != value.c_str() + value.size() || !std::isfinite(x) || x < 0)
-    throw UsageError("--thickness expects a finite number >= 0, got '" + value + "'");
-  return x;
-}
-
 CcdOptions parseCcd(const std::vector<std::string>& args) {
   CcdOptions o;
   for (std::size_t i = 1; i < args.size(); ++i) {
@@ -64,7 +58,7 @@ CcdOptions parseCcd(const std::vector<std::string>& args) {
     if (a == "--answers")
       o.answers = value();
     else if (a == "--thickness")
-      o.thickness = parseThickness(value());
+      o.thickness = parseNumber(a, value(), 0, std::numeric_limits<double>::infinity());
     else if (!a.empty() && a[0] == '-')
       throw UsageError("unknown option '" + a + "'");
     else if (o.queries.empty())

@@ -59,9 +59,10 @@ const char* kRunHelp =
     "  --render FILE     write a PNG picture of the last frame\n"
     "  --quiet           no progress output\n"
     "  --max-kinematic-travel M\n"
-    "                    the farthest (m) an animated collider or pin may move in one substep\n"
-    "                    before a step takes more substeps (0: never; default: 3/4 of the\n"
-    "                    smallest contact distance between an animated and a moving object)\n"
+    "                    the farthest (m) a moving collider's vertex or an animated pin may\n"
+    "                    go in one substep before a step takes more substeps (0: never;\n"
+    "                    default: 3/4 of the smallest contact distance between a collider or\n"
+    "                    pinned object and a moving object)\n"
     "Flags override the scene file, which overrides the defaults. Bad input: exit code 2.\n";
 
 // An edge this many times its rest length (or longer) in any frame makes a run not clean: the

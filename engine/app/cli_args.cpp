@@ -26,9 +26,12 @@ double parseNumber(const std::string& flag, const std::string& value, double lo,
   const double x = std::strtod(value.c_str(), &end);
   if (value.empty() || end != value.c_str() + value.size() || !std::isfinite(x) || x < lo ||
       x > hi) {
-    std::ostringstream range;
-    range << '[' << lo << ", " << hi << ']';
-    throw UsageError(flag + " expects a number in " + range.str() + ", got '" + value + "'");
+    std::ostringstream expected;
+    if (std::isinf(hi))
+      expected << "a finite number >= " << lo;
+    else
+      expected << "a number in [" << lo << ", " << hi << ']';
+    throw UsageError(flag + " expects " + expected.str() + ", got '" + value + "'");
   }
   return x;
 }

@@ -15,7 +15,7 @@ struct UsageError : std::runtime_error {
 
 // An integer in [lo, hi], or UsageError naming the flag.
 int parseInt(const std::string& flag, const std::string& value, int lo, int hi);
-// A finite number in [lo, hi], or UsageError naming the flag.
+// A finite number in [lo, hi] (hi may be infinite: no upper bound), or UsageError naming the flag.
 double parseNumber(const std::string& flag, const std::string& value, double lo, double hi);
 // A comma-separated list of such integers ("1,2,4").
 std::vector<int> parseIntList(const std::string& flag, const std::string& value, int lo, int hi);

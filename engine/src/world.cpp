@@ -516,9 +516,9 @@ double constantVelocityTravel(const std::vector<ObjectRecord>& objects,
         std::any_of(kinematics.tracks.begin(), kinematics.tracks.end(),
                     [&](const KinematicTrack& track) { return track.object == o; });
     if (tracked) continue;
-    const ObjectRecord& object = objects[o];
-    for (Index i = object.firstParticle; i < object.firstParticle + object.particleCount; ++i)
-      if (particles.w[i] == 0) farthest = std::max(farthest, double(particles.v[i].norm()) * dt);
+    // Every particle of it has the collider's velocity (up to the rounding of the update).
+    if (objects[o].particleCount > 0)
+      farthest = std::max(farthest, double(particles.v[objects[o].firstParticle].norm()) * dt);
   }
   return farthest;
 }

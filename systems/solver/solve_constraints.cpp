@@ -196,9 +196,10 @@ void finishPrimitiveContacts(SolvePools& pools, const SolveSettings& settings,
     report.crossing.rounds += crossing.rounds;
     // A later pass checks the earlier one's leftovers again: only the last one's count.
     report.crossing.unresolved = crossing.unresolved;
-    // After the first pass only: the later ones check what it and the sweeps left.
+    // After the first pass only, and only where it carried particles with a body (impact zones
+    // alone pin nothing): the later passes check what it and the sweeps left.
     relaxed =
-        crossing.stopped > 0 && pass == 0 && relaxAroundHeldParticles(pools, settings, context);
+        crossing.carried > 0 && pass == 0 && relaxAroundHeldParticles(pools, settings, context);
     if (relaxed) ++report.crossing.relaxations;
     outside = countOutsideParticleBounds(pools.candidates, particles.p);
   }
