@@ -250,7 +250,7 @@ void BM_Cascade(benchmark::State& state) {
     s.particles.p = predicted;
     state.ResumeTiming();
     arena.execute([&] {
-      projections = runMultigridCascade(s.hierarchies, s.objects, s.particles, s.cascadeStart,
+      projections = runMultigridCascade(s.hierarchies, s.objects, s.particles, s.cascade,
                                         settings.sweepsPerLevel);
     });
   }

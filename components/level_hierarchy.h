@@ -44,7 +44,11 @@
 // never allows between any two of its points, and the rest-pose distance is that bound for flat
 // rest shapes (for a curved rest shape it is shorter than the path along the surface, so a coarse
 // limit there may hold the cloth tighter than its rest shape). No coarse bending: bending is a
-// fine-scale property, left to the fine sweeps.
+// fine-scale property, left to the fine sweeps. The converse holds for a shape bent while the
+// solve runs: over a curved patch the chord is shorter than the material, and the limit is slack
+// while the material stretches. A cloth bent by a collider (draped over a sphere) cannot
+// straighten, so where a coarse edge has a particle in collider contact the cascade limits its
+// chord to the one its path (pathOf) would have at rest length instead (multigrid_cascade.h).
 //
 // Intended use, one coarse-to-fine cascade per substep (Müller 2008 §4), with each particle moved
 // by its parents' TOTAL displacement since the cascade began, so that what the coarser levels did
@@ -75,6 +79,17 @@ struct HierarchyLevel {
   std::vector<Real> restLength;             // rest-pose distance of the edge's two particles
   std::vector<Index> colorOffset;           // color c is edges [colorOffset[c], colorOffset[c+1])
 
+  // Coarse levels only (empty on level 0): the material an edge stands for, as the path of one
+  // to three edges of the next finer level (their indices there, CSR per edge) that joins its
+  // two particles with the least rest length, and that rest length, pathRest ≥ restLength. The
+  // cascade compares the path's current length with it to tell a stretched curved patch from a
+  // slack one (multigrid_cascade.cpp, setContactLimits).
+  std::vector<Index> pathOffset;  // edges.size() + 1 entries
+  std::vector<Index> pathEdge;
+  std::vector<Real> pathRest;
+  // Where this level's edges start in CascadeScratch::limit (coarse levels).
+  Index scratchBase = 0;
+
   // Prolongation from the next (coarser) level, CSR indexed by the position in `fine`.
   std::vector<Index> fine;          // sorted, global: on this level, not on the next
   std::vector<Index> parentOffset;  // fine.size() + 1 entries
@@ -89,6 +104,9 @@ struct HierarchyLevel {
   std::vector<Real> tetherLimit;
 
   std::size_t colorCount() const { return colorOffset.empty() ? 0 : colorOffset.size() - 1; }
+  std::span<const Index> pathOf(std::size_t e) const {
+    return {pathEdge.data() + pathOffset[e], pathEdge.data() + pathOffset[e + 1]};
+  }
   std::span<const Index> parentsOf(std::size_t fineIndex) const {
     return {parent.data() + parentOffset[fineIndex], parent.data() + parentOffset[fineIndex + 1]};
   }
@@ -107,6 +125,14 @@ struct ObjectHierarchy {
 // The world's hierarchies: one per object with edges, in object order.
 struct LevelHierarchies {
   std::vector<ObjectHierarchy> objects;
+  std::size_t coarseEdges = 0;  // the edges of every coarse level of every object
+};
+
+// The cascade's per-substep scratch: the positions when it began, and the limit each coarse edge
+// is swept with (at HierarchyLevel::scratchBase of its level) while particles touch colliders.
+struct CascadeScratch {
+  std::vector<Vec3> start;
+  std::vector<Real> limit;
 };
 
 }  // namespace nucleon

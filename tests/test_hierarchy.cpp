@@ -146,6 +146,34 @@ void checkInvariants(const ObjectHierarchy& h, const ObjectRecord& object,
       EXPECT_NEAR(level.restLength[e], distance, 1e-6 * distance);
     }
 
+    // Paths (coarse levels): one to three edges of the finer level that lead from the edge's
+    // first particle to its second, their rest lengths summed; never shorter than the straight
+    // rest distance (triangle inequality, to float rounding).
+    if (l == 0) {
+      EXPECT_TRUE(level.pathOffset.empty());
+    } else {
+      const HierarchyLevel& finer = h.levels[l - 1];
+      ASSERT_EQ(level.pathOffset.size(), level.edges.size() + 1);
+      ASSERT_EQ(level.pathRest.size(), level.edges.size());
+      for (std::size_t e = 0; e < level.edges.size(); ++e) {
+        const auto path = level.pathOf(e);
+        ASSERT_GE(path.size(), 1u);
+        ASSERT_LE(path.size(), 3u);
+        Index at = level.edges[e][0];
+        double rest = 0;
+        for (Index sub : path) {
+          ASSERT_LT(sub, finer.edges.size());
+          const auto [u, v] = finer.edges[sub];
+          ASSERT_TRUE(u == at || v == at) << "path of edge " << e << " breaks";
+          at = u == at ? v : u;
+          rest += finer.restLength[sub];
+        }
+        EXPECT_EQ(at, level.edges[e][1]) << "path of edge " << e << " ends elsewhere";
+        EXPECT_NEAR(level.pathRest[e], rest, 1e-6 * rest);
+        EXPECT_GE(level.pathRest[e], level.restLength[e] * (1 - 1e-6));
+      }
+    }
+
     // Coloring: offsets cover the edges, and no particle appears twice in one color.
     ASSERT_GE(level.colorOffset.size(), 1u);
     EXPECT_EQ(level.colorOffset.front(), 0u);
@@ -245,8 +273,13 @@ void expectIdentical(const LevelHierarchies& a, const LevelHierarchies& b) {
       EXPECT_EQ(p.parentOffset, q.parentOffset);
       EXPECT_EQ(p.parent, q.parent);
       EXPECT_EQ(p.weight, q.weight);
+      EXPECT_EQ(p.pathOffset, q.pathOffset);
+      EXPECT_EQ(p.pathEdge, q.pathEdge);
+      EXPECT_EQ(p.pathRest, q.pathRest);
+      EXPECT_EQ(p.scratchBase, q.scratchBase);
     }
   }
+  EXPECT_EQ(a.coarseEdges, b.coarseEdges);
 }
 
 TEST(Hierarchy, GridCloth256LevelSizes) {
@@ -280,6 +313,17 @@ TEST(Hierarchy, GridCloth256LevelSizes) {
     const std::size_t side = static_cast<std::size_t>(std::lround(std::sqrt(sizes[l])));
     EXPECT_EQ(h.levels[l].edges.size(),
               2 * (side - 1) * (side - 1) + 2 * side * (side - 1) - (l == 1 ? 1 : 0));
+    // An axis edge's path is the straight one through the finer level's particle between its
+    // ends: rest length along it equals the rest distance.
+    const auto& rest = world.impl().state.particles.restPosition;
+    for (std::size_t e = 0; e < h.levels[l].edges.size(); ++e) {
+      const auto [a, b] = h.levels[l].edges[e];
+      const Vec3 d = rest[b] - rest[a];
+      const int axes = (d.x() != 0) + (d.y() != 0) + (d.z() != 0);
+      if (axes == 1) {
+        EXPECT_NEAR(h.levels[l].pathRest[e], h.levels[l].restLength[e], 1e-5);
+      }
+    }
   }
 #if !defined(__SANITIZE_ADDRESS__) && defined(NDEBUG)
   EXPECT_LT(seconds, 1.0);

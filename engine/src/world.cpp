@@ -587,7 +587,8 @@ void World::step(double dt) {
     if (s.solver.kind == SolverKind::Multigrid) {
       buildLevelHierarchies(s.hierarchies, s.objects, s.particles);
       attachLevelTethers(s.hierarchies, s.constraints.tether, s.particles.size());
-      s.cascadeStart.resize(s.particles.size());
+      s.cascade.start.resize(s.particles.size());
+      s.cascade.limit.resize(s.hierarchies.coarseEdges);
     } else
       s.hierarchies.objects.clear();
     s.plan = buildSweepPlan(s.solver, s.objects, s.constraints, s.particles);

@@ -42,7 +42,7 @@ struct WorldState {
   // The multigrid backend's level hierarchies (static, built with the derived tables when that
   // backend is chosen) and its cascade's scratch (the positions when the cascade began).
   LevelHierarchies hierarchies;
-  std::vector<Vec3> cascadeStart;
+  CascadeScratch cascade;  // the cascade's scratch
   // Collisions between primitives (ARCHITECTURE.md §4): the primitive lists (static, rebuilt with
   // the derived tables), the object pairs the API excluded, the broad phase's BVH and candidate
   // pairs and the primitive contacts (per substep), and what the collision stages did.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cstdint>
+#include <initializer_list>
 #include <span>
 
 namespace nucleon {
@@ -48,8 +49,9 @@ double restDistance(const std::vector<Vec3>& rest, Index first, Index a, Index b
 // Stores the level's graph: global pairs in color order, rest lengths and color offsets. Greedy
 // edge coloring in (i, j) order, each edge taking the lowest color free at both its ends: at most
 // 2Δ − 1 colors for the largest degree Δ, kept as one bit set per particle.
-void storeGraph(HierarchyLevel& level, const std::vector<Edge>& edges, const Adjacency& adjacency,
-                const std::vector<Vec3>& rest, Index first, std::size_t particleCount) {
+std::vector<Index> storeGraph(HierarchyLevel& level, const std::vector<Edge>& edges,
+                              const Adjacency& adjacency, const std::vector<Vec3>& rest,
+                              Index first, std::size_t particleCount) {
   std::size_t maxDegree = 0;
   for (std::size_t i = 0; i < particleCount; ++i)
     maxDegree = std::max<std::size_t>(maxDegree, adjacency.offset[i + 1] - adjacency.offset[i]);
@@ -77,11 +79,39 @@ void storeGraph(HierarchyLevel& level, const std::vector<Edge>& edges, const Adj
   std::vector<Index> fill(level.colorOffset.begin(), level.colorOffset.end() - 1);
   level.edges.resize(edges.size());
   level.restLength.resize(edges.size());
+  std::vector<Index> slotOf(edges.size());
   for (std::size_t e = 0; e < edges.size(); ++e) {
     const Index slot = fill[color[e]]++;
+    slotOf[e] = slot;
     level.edges[slot] = {first + edges[e][0], first + edges[e][1]};
     level.restLength[slot] = static_cast<Real>(restDistance(rest, first, edges[e][0], edges[e][1]));
   }
+  return slotOf;
+}
+
+// A coarse edge's path through the finer level: up to three of its edges (slots).
+struct Path {
+  std::array<Index, 3> edge{};
+  int count = 0;
+  double rest = 0;
+};
+
+// Stores the paths of a coarse level's edges (`paths` in the sorted order of its edge list,
+// slotOf mapping that order to the color order) and their rest lengths.
+void storePaths(HierarchyLevel& level, const std::vector<Path>& paths,
+                const std::vector<Index>& slotOf) {
+  const std::size_t count = paths.size();
+  level.pathOffset.assign(count + 1, 0);
+  level.pathRest.assign(count, 0);
+  for (std::size_t e = 0; e < count; ++e) {
+    level.pathOffset[slotOf[e] + 1] = static_cast<Index>(paths[e].count);
+    level.pathRest[slotOf[e]] = static_cast<Real>(paths[e].rest);
+  }
+  for (std::size_t e = 0; e < count; ++e) level.pathOffset[e + 1] += level.pathOffset[e];
+  level.pathEdge.resize(level.pathOffset[count]);
+  for (std::size_t e = 0; e < count; ++e)
+    std::copy_n(paths[e].edge.begin(), paths[e].count,
+                level.pathEdge.begin() + level.pathOffset[slotOf[e]]);
 }
 
 // A regular grid as shapes.h's gridCloth lays it out: vertex (i, j) is j·columns + i, every
@@ -159,14 +189,21 @@ ObjectHierarchy buildObjectHierarchy(const ObjectRecord& object, Index objectInd
   // seen[b] == stamp: b is already in the row being built. One stamp per row over all levels.
   std::vector<std::uint64_t> seen(n, 0);
   std::uint64_t stamp = 0;
-  std::vector<Index> row;
+  struct RowEntry {
+    Index partner;
+    Path path;
+  };
+  std::vector<RowEntry> row;
+  std::vector<Index> rowSlot(n, 0);
+  std::vector<Path> paths;
   std::vector<double> raw;
   for (;;) {
     HierarchyLevel& level = out.levels.emplace_back();
     level.particles.resize(members.size());
     for (std::size_t m = 0; m < members.size(); ++m) level.particles[m] = first + members[m];
     const Adjacency adjacency = buildAdjacency(edges, n);
-    storeGraph(level, edges, adjacency, rest, first, n);
+    const std::vector<Index> slotOf = storeGraph(level, edges, adjacency, rest, first, n);
+    if (out.levels.size() > 1) storePaths(level, paths, slotOf);
     level.parentOffset = {0};
     if (members.size() <= settings.smallestLevel) break;
 
@@ -240,34 +277,58 @@ ObjectHierarchy buildObjectHierarchy(const ObjectRecord& object, Index objectInd
     // The next level's graph (Müller 2008 §4.2): coarse a and b are joined if they are neighbours
     // here or share a fine neighbour here, and (settings.linkThroughFineEdges) if they have fine
     // neighbours that are neighbours of each other. Rows are built per a, keeping b > a, so that
-    // the edge list comes out sorted by (a, b).
+    // the edge list comes out sorted by (a, b). Each keeps the path of this level's edges between
+    // its two particles with the least rest length (the straightest, where several join them).
+    const auto slotBetween = [&](Index u, Index v) {
+      const Edge key{std::min(u, v), std::max(u, v)};
+      return slotOf[static_cast<std::size_t>(std::lower_bound(edges.begin(), edges.end(), key) -
+                                             edges.begin())];
+    };
+    const std::vector<Real>& restHere = out.levels.back().restLength;
     std::vector<Edge> nextEdges;
+    paths.clear();
     for (Index a : next) {
       row.clear();
       ++stamp;
-      auto add = [&](Index b) {
-        if (b > a && coarse[b] && seen[b] != stamp) {
+      auto add = [&](Index b, std::initializer_list<Index> via) {
+        if (b <= a || !coarse[b]) return;
+        Path path;
+        Index from = a;
+        for (Index to : via) {
+          path.edge[static_cast<std::size_t>(path.count++)] = slotBetween(from, to);
+          from = to;
+        }
+        path.edge[static_cast<std::size_t>(path.count++)] = slotBetween(from, b);
+        for (int k = 0; k < path.count; ++k) path.rest += restHere[path.edge[k]];
+        if (seen[b] != stamp) {
           seen[b] = stamp;
-          row.push_back(b);
+          rowSlot[b] = static_cast<Index>(row.size());
+          row.push_back({b, path});
+        } else if (path.rest < row[rowSlot[b]].path.rest) {
+          row[rowSlot[b]].path = path;
         }
       };
       for (Index f : adjacency.of(a)) {
         if (coarse[f]) {
-          add(f);
+          add(f, {});
           continue;
         }
         for (Index b : adjacency.of(f)) {
-          add(b);
+          add(b, {f});
           if (settings.linkThroughFineEdges && !coarse[b])
-            for (Index c : adjacency.of(b)) add(c);
+            for (Index c : adjacency.of(b)) add(c, {f, b});
         }
       }
       // A limit between two particles that never move (inverse mass 0) constrains nothing; a
       // pinned row would otherwise join each of its pins to most of the others within levels.
-      std::sort(row.begin(), row.end());
+      std::sort(row.begin(), row.end(),
+                [](const RowEntry& x, const RowEntry& y) { return x.partner < y.partner; });
       const bool aHeld = particles.w[first + a] == 0;
-      for (Index b : row)
-        if (!aHeld || particles.w[first + b] != 0) nextEdges.push_back({a, b});
+      for (const RowEntry& entry : row)
+        if (!aHeld || particles.w[first + entry.partner] != 0) {
+          nextEdges.push_back({a, entry.partner});
+          paths.push_back(entry.path);
+        }
     }
     for (Index i : members) coarse[i] = 0;
     members = std::move(next);
@@ -288,6 +349,12 @@ void buildLevelHierarchies(LevelHierarchies& out, const std::vector<ObjectRecord
     if (!deformable || object.complex.edges.size() == 0) continue;
     out.objects.push_back(buildObjectHierarchy(object, static_cast<Index>(o), particles, settings));
   }
+  out.coarseEdges = 0;
+  for (ObjectHierarchy& hierarchy : out.objects)
+    for (std::size_t l = 1; l < hierarchy.levels.size(); ++l) {
+      hierarchy.levels[l].scratchBase = static_cast<Index>(out.coarseEdges);
+      out.coarseEdges += hierarchy.levels[l].edges.size();
+    }
 }
 
 void attachLevelTethers(LevelHierarchies& hierarchies, const TetherConstraints& tethers,

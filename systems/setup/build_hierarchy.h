@@ -15,6 +15,8 @@
 //    neighbour, at this level (Müller), or whose fine neighbours are neighbours (settings: it
 //    keeps levels connected); limits between two particles of inverse mass 0 are left out. Rest
 //    lengths are rest-pose distances;
+//  - each coarse edge keeps its path: the one to three edges of this level that join its two
+//    particles (as the link above found them) with the least rest length;
 //  - parents of a fine particle: its coarse neighbours, weighted ŵ_j = 1 / (d_j / max d + ε) with
 //    d_j the rest distance, normalised to sum 1 (closer parents weigh more);
 //  - edges colored greedily in (i, j) order, each taking the lowest color free at both ends.

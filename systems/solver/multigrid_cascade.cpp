@@ -53,23 +53,24 @@ constexpr std::size_t kSerialEdges = 8192;
 
 // Edges [begin, end) of one color: eight at a time where the AVX2 batch runs (the same PBD step,
 // without multipliers), the rest one by one.
-void sweepEdges(const HierarchyLevel& level, ParticlePool& particles, Index begin, Index end) {
+void sweepEdges(const HierarchyLevel& level, const Real* limit, ParticlePool& particles,
+                Index begin, Index end) {
   DistanceBatch batch;
   batch.particles = level.edges.data();
-  batch.rest = level.restLength.data();
+  batch.rest = limit;
   batch.positions = particles.p.data();
   batch.inverseMass = particles.w.data();
   batch.unilateral = true;
   for (Index e = projectDistanceBatches(batch, begin, end); e != end; ++e)
-    projectLimit(particles, level.edges[e], level.restLength[e]);
+    projectLimit(particles, level.edges[e], limit[e]);
 }
 
-void sweepLevel(const HierarchyLevel& level, ParticlePool& particles) {
+void sweepLevel(const HierarchyLevel& level, const Real* limit, ParticlePool& particles) {
   const bool serial = level.edges.size() < kSerialEdges;
   for (std::size_t c = 0; c < level.colorCount(); ++c) {
     const Index begin = level.colorOffset[c], end = level.colorOffset[c + 1];
     if (serial) {
-      sweepEdges(level, particles, begin, end);
+      sweepEdges(level, limit, particles, begin, end);
       continue;
     }
     // Pieces of whole batches: which edges the AVX2 batch takes, and which the scalar remainder
@@ -79,7 +80,7 @@ void sweepLevel(const HierarchyLevel& level, ParticlePool& particles) {
     tbb::parallel_for(
         tbb::blocked_range<Index>(0, batches, kEdgeGrain / kDistanceBatchSize),
         [&](const tbb::blocked_range<Index>& r) {
-          sweepEdges(level, particles, begin + r.begin() * kDistanceBatchSize,
+          sweepEdges(level, limit, particles, begin + r.begin() * kDistanceBatchSize,
                      std::min(end, begin + r.end() * kDistanceBatchSize));
         },
         tbb::static_partitioner());
@@ -115,7 +116,8 @@ void waitForChunks(const std::atomic<std::uint64_t>& done, std::uint64_t count) 
 constexpr std::size_t kSharedLevelEdges = 1024;  // below: one thread (a chunk or two a colour)
 constexpr std::size_t kMaxSharedColors = 64;
 
-bool sweepLevelShared(const HierarchyLevel& level, ParticlePool& particles, int sweeps) {
+bool sweepLevelShared(const HierarchyLevel& level, const Real* limit, ParticlePool& particles,
+                      int sweeps) {
   const std::size_t colors = level.colorCount();
   if (colors == 0 || colors > kMaxSharedColors || sweeps <= 0) return false;
   // First chunk of each colour within a sweep; the chunks of a sweep.
@@ -142,7 +144,7 @@ bool sweepLevelShared(const HierarchyLevel& level, ParticlePool& particles, int 
       waitForChunks(done, before);
       const Index begin = level.colorOffset[color] + (within - colorChunk[color]) * kChunkEdges;
       const Index end = std::min<Index>(level.colorOffset[color + 1], begin + kChunkEdges);
-      sweepEdges(level, particles, begin, end);
+      sweepEdges(level, limit, particles, begin, end);
       done.fetch_add(1, std::memory_order_release);
     }
   });
@@ -203,15 +205,64 @@ void prolong(const HierarchyLevel& level, ParticlePool& particles, const std::ve
       tbb::static_partitioner());
 }
 
+// The limit each coarse edge is swept with this substep, where the cloth touches a collider.
+// Its rest-pose distance bounds the chord only while the patch it stands for lies flat: over a
+// curved patch (cloth draped on a sphere) the chord is shorter than the material between its
+// ends, and a chord limit stays slack while that material stretches, so the coarse levels stop
+// carrying stretch exactly where a collider holds the cloth. With the chord c and the current
+// length P of the edge's path through the finer level (HierarchyLevel::pathOf, rest length R),
+// the patch is at rest length when P = R; keeping the shape's chord-to-path ratio, its chord is
+// then c R / P. Where the path is stretched (P > R) the limit is the smaller of that and the
+// rest distance: unchanged for a flat patch (c R / P is the rest distance under uniform
+// stretch), it grips a curved one as soon as its material stretches. Only edges with a particle
+// in collider contact get it: a fold the cloth may open by itself is no such constraint, and
+// holding its chord made free hanging cloths worse (bench/results/…/solver_speed.md §11).
+// Measured once per cascade, from the positions it starts from.
+void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& particles,
+                      std::span<const Index> colliderRuns, CascadeScratch& scratch) {
+  const auto touches = [&](Index i) { return colliderRuns[i] != colliderRuns[i + 1]; };
+  const auto distance = [&](const std::array<Index, 2>& edge) {
+    return (particles.p[edge[0]] - particles.p[edge[1]]).norm();
+  };
+  for (std::size_t l = 1; l < hierarchy.levels.size(); ++l) {
+    const HierarchyLevel& level = hierarchy.levels[l];
+    const HierarchyLevel& finer = hierarchy.levels[l - 1];
+    Real* limit = scratch.limit.data() + level.scratchBase;
+    const auto set = [&](std::size_t e) {
+      const std::array<Index, 2>& edge = level.edges[e];
+      limit[e] = level.restLength[e];
+      if (!touches(edge[0]) && !touches(edge[1])) return;
+      Real path = 0;
+      for (Index sub : level.pathOf(e)) path += distance(finer.edges[sub]);
+      if (!(path > level.pathRest[e])) return;
+      limit[e] = std::min(limit[e], distance(edge) * level.pathRest[e] / path);
+    };
+    if (level.edges.size() < kSerialEdges) {
+      for (std::size_t e = 0; e < level.edges.size(); ++e) set(e);
+      continue;
+    }
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, level.edges.size(), kEdgeGrain),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+          for (std::size_t e = r.begin(); e != r.end(); ++e) set(e);
+        },
+        tbb::static_partitioner());
+  }
+}
+
 }  // namespace
 
 std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
                                 std::span<const ObjectRecord> objects, ParticlePool& particles,
-                                std::vector<Vec3>& start, std::span<const int> sweepsPerLevel,
+                                CascadeScratch& scratch, std::span<const int> sweepsPerLevel,
                                 CascadeHook afterLevel, void* context,
-                                std::span<const Index> contactOffsets) {
+                                std::span<const Index> contactOffsets,
+                                std::span<const Index> colliderRuns) {
   if (sweepsOfLevel(sweepsPerLevel, 1) <= 0) return 0;
+  std::vector<Vec3>& start = scratch.start;
   start.resize(particles.size());
+  scratch.limit.resize(hierarchies.coarseEdges);
+  const bool contacts = colliderRuns.size() == particles.size() + 1;
   std::size_t projections = 0;
   for (const ObjectHierarchy& hierarchy : hierarchies.objects) {
     if (!cascades(hierarchy, objects)) continue;
@@ -222,14 +273,17 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
           for (Index i = r.begin(); i != r.end(); ++i) start[i] = particles.p[i];
         },
         tbb::static_partitioner());
+    if (contacts) setContactLimits(hierarchy, particles, colliderRuns, scratch);
     for (std::size_t l = hierarchy.levels.size() - 1; l >= 1; --l) {
       const HierarchyLevel& level = hierarchy.levels[l];
+      const Real* limit =
+          contacts ? scratch.limit.data() + level.scratchBase : level.restLength.data();
       const int sweeps = sweepsOfLevel(sweepsPerLevel, l);
       const bool shared = level.edges.size() >= kSharedLevelEdges &&
                           level.edges.size() < kSerialEdges &&
-                          sweepLevelShared(level, particles, sweeps);
+                          sweepLevelShared(level, limit, particles, sweeps);
       if (!shared)
-        for (int k = 0; k < sweeps; ++k) sweepLevel(level, particles);
+        for (int k = 0; k < sweeps; ++k) sweepLevel(level, limit, particles);
       if (sweeps > 0) sweepLevelTethers(level, particles);
       projections += level.edges.size() * static_cast<std::size_t>(sweeps) +
                      (sweeps > 0 ? level.tetherPin.size() : 0);

@@ -19,16 +19,20 @@ namespace nucleon {
 
 // Runs the cascade on particles.p for every hierarchy of at least two levels whose object is
 // inextensible (stretch compliance 0; a soft object's coarse limits would stiffen it), with
-// sweepsOfLevel(sweepsPerLevel, l) sweeps of coarse level l. `start` is scratch (q, the positions
-// when the cascade began), sized to the particle count. Colors of a level run in sequence, the
+// sweepsOfLevel(sweepsPerLevel, l) sweeps of coarse level l. Colors of a level run in sequence, the
 // edges of a color in parallel (no two share a particle), prolongation in parallel per particle:
 // the result does not depend on the thread count. After the sweeps of every level, and after the
 // last prolongation, `afterLevel(context)` is called: the solve projects its contacts there, as it
 // does after every fine sweep round, so that a particle the cascade pulls toward a collider is
 // held by its contact instead of being carried into it. `contactOffsets` is the CSR offset table
 // of the particles' primitive contacts this substep (PrimitiveContactPool::incidenceOffset; empty
-// for none): prolongation leaves a particle with contacts where its contacts put it. Returns the
-// coarse-edge projections and tether projections performed.
+// for none): prolongation leaves a particle with contacts where its contacts put it.
+// `colliderRuns` is the collider contacts' run table (ContactPool::runStart, particle count + 1
+// entries; empty for none): a coarse edge with a particle in collider contact is swept with a
+// limit that sees the stretch of a curved patch (the chord its path would have at rest length,
+// when that is shorter than the rest distance), the others with their rest distance; `scratch`
+// holds those limits and the cascade's start positions. Returns the coarse-edge projections and
+// tether projections performed.
 using CascadeHook = void (*)(void* context);
 
 // The sweeps of coarse level l ≥ 1: sweepsPerLevel[l − 1], or its last value beyond the list; 0
@@ -36,9 +40,10 @@ using CascadeHook = void (*)(void* context);
 int sweepsOfLevel(std::span<const int> sweepsPerLevel, std::size_t level);
 std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
                                 std::span<const ObjectRecord> objects, ParticlePool& particles,
-                                std::vector<Vec3>& start, std::span<const int> sweepsPerLevel,
+                                CascadeScratch& scratch, std::span<const int> sweepsPerLevel,
                                 CascadeHook afterLevel = nullptr, void* context = nullptr,
-                                std::span<const Index> contactOffsets = {});
+                                std::span<const Index> contactOffsets = {},
+                                std::span<const Index> colliderRuns = {});
 
 // The coarse-edge projections one cascade performs (for throughput and work figures).
 std::size_t cascadeProjections(const LevelHierarchies& hierarchies,

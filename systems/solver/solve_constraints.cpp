@@ -61,12 +61,13 @@ void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepC
           ? std::span<const Index>(pools.primitiveContacts.incidenceOffset)
           : std::span<const Index>();
   report.cascadeProjections += runMultigridCascade(
-      pools.hierarchies, pools.objects, pools.particles, pools.cascadeStart,
-      settings.sweepsPerLevel,
+      pools.hierarchies, pools.objects, pools.particles, pools.cascade, settings.sweepsPerLevel,
       [](void* p) {
         projectAllContacts(*static_cast<SolvePools*>(p), SolverKind::ColoredGaussSeidel);
       },
-      &pools, contactOffsets);
+      &pools, contactOffsets,
+      pools.contacts.size() > 0 ? std::span<const Index>(pools.contacts.runStart)
+                                : std::span<const Index>());
   if (pools.colliders.size() > 0 &&
       contactsMissing(pools.contacts, pools.colliders, pools.particles)) {
     detectContacts(pools.contacts, pools.colliders, pools.particles, context.h, pools.particles.p);

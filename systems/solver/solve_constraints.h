@@ -56,7 +56,7 @@ struct SolvePools {
   PrimitiveBvh& bvh;
   const LevelHierarchies& hierarchies;
   std::span<const ObjectRecord> objects;
-  std::vector<Vec3>& cascadeStart;  // the cascade's scratch
+  CascadeScratch& cascade;
 };
 
 // What one solve did, for the profile, the collision report and the repair log.
