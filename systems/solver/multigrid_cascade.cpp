@@ -214,10 +214,12 @@ void prolong(const HierarchyLevel& level, ParticlePool& particles, const std::ve
 // the patch is at rest length when P = R; keeping the shape's chord-to-path ratio, its chord is
 // then c R / P. Where the path is stretched (P > R) the limit is the smaller of that and the
 // rest distance: unchanged for a flat patch (c R / P is the rest distance under uniform
-// stretch), it grips a curved one as soon as its material stretches. Only edges with a particle
-// in collider contact get it: a fold the cloth may open by itself is no such constraint, and
-// holding its chord made free hanging cloths worse (bench/results/…/solver_speed.md §11).
-// Measured once per cascade, from the positions it starts from.
+// stretch), it grips a curved one as soon as its material stretches. Only edges with both
+// particles in collider contact get it, a patch the collider holds bent: a fold the cloth may
+// open by itself is no such constraint (holding its chord made free hanging cloths worse), and
+// with one particle in contact the edges across the folds of a pile on the ground pulled its
+// layers together (bench/results/2core-AMD-EPYC/solver_speed.md §11). Measured once per cascade,
+// from the positions it starts from.
 void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& particles,
                       std::span<const Index> colliderRuns, CascadeScratch& scratch) {
   const auto touches = [&](Index i) { return colliderRuns[i] != colliderRuns[i + 1]; };
@@ -231,7 +233,7 @@ void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& part
     const auto set = [&](std::size_t e) {
       const std::array<Index, 2>& edge = level.edges[e];
       limit[e] = level.restLength[e];
-      if (!touches(edge[0]) && !touches(edge[1])) return;
+      if (!touches(edge[0]) || !touches(edge[1])) return;
       Real path = 0;
       for (Index sub : level.pathOf(e)) path += distance(finer.edges[sub]);
       if (!(path > level.pathRest[e])) return;

@@ -28,7 +28,7 @@ namespace nucleon {
 // of the particles' primitive contacts this substep (PrimitiveContactPool::incidenceOffset; empty
 // for none): prolongation leaves a particle with contacts where its contacts put it.
 // `colliderRuns` is the collider contacts' run table (ContactPool::runStart, particle count + 1
-// entries; empty for none): a coarse edge with a particle in collider contact is swept with a
+// entries; empty for none): a coarse edge with both particles in collider contact is swept with a
 // limit that sees the stretch of a curved patch (the chord its path would have at rest length,
 // when that is shorter than the rest distance), the others with their rest distance; `scratch`
 // holds those limits and the cascade's start positions. Returns the coarse-edge projections and
