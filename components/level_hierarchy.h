@@ -48,7 +48,7 @@
 // solve runs: over a curved patch the chord is shorter than the material, and the limit is slack
 // while the material stretches. A cloth bent by a collider (draped over a sphere) cannot
 // straighten, so where both particles of a coarse edge touch a collider the cascade limits its
-// chord to the one its path (pathOf) would have at rest length instead (multigrid_cascade.h).
+// chord to the one its path would have at rest length instead (multigrid_cascade.h).
 //
 // Intended use, one coarse-to-fine cascade per substep (Müller 2008 §4), with each particle moved
 // by its parents' TOTAL displacement since the cascade began, so that what the coarser levels did
@@ -80,12 +80,12 @@ struct HierarchyLevel {
   std::vector<Index> colorOffset;           // color c is edges [colorOffset[c], colorOffset[c+1])
 
   // Coarse levels only (empty on level 0): the material an edge stands for, as the path of one
-  // to three edges of the next finer level (their indices there, CSR per edge) that joins its
-  // two particles with the least rest length, and that rest length, pathRest ≥ restLength. The
-  // cascade compares the path's current length with it to tell a stretched curved patch from a
-  // slack one (multigrid_cascade.cpp, setContactLimits).
-  std::vector<Index> pathOffset;  // edges.size() + 1 entries
-  std::vector<Index> pathEdge;
+  // to three edges of the next finer level that joins its two particles with the least rest
+  // length: its particles (global) from edges[e][0] to edges[e][1], the first repeated in front of
+  // a shorter path (path[e] = {a, a, f, b} for a → f → b), and that rest length, pathRest ≥
+  // restLength. The cascade compares the path's current length with it to tell a stretched
+  // curved patch from a slack one (multigrid_cascade.cpp, setContactLimits).
+  std::vector<std::array<Index, 4>> path;
   std::vector<Real> pathRest;
   // Where this level's edges start in CascadeScratch::limit (coarse levels).
   Index scratchBase = 0;
@@ -104,9 +104,6 @@ struct HierarchyLevel {
   std::vector<Real> tetherLimit;
 
   std::size_t colorCount() const { return colorOffset.empty() ? 0 : colorOffset.size() - 1; }
-  std::span<const Index> pathOf(std::size_t e) const {
-    return {pathEdge.data() + pathOffset[e], pathEdge.data() + pathOffset[e + 1]};
-  }
   std::span<const Index> parentsOf(std::size_t fineIndex) const {
     return {parent.data() + parentOffset[fineIndex], parent.data() + parentOffset[fineIndex + 1]};
   }

@@ -167,6 +167,24 @@ void projectContacts(ContactPool& contacts, const ColliderPool& colliders, Parti
       });
 }
 
+void projectContactsOf(ContactPool& contacts, const ColliderPool& colliders,
+                       ParticlePool& particles, std::span<const Index> listed) {
+  if (contacts.size() == 0) return;
+  const auto project = [&](std::size_t k) {
+    const Index i = listed[k];
+    for (Index c = contacts.runStart[i]; c != contacts.runStart[i + 1]; ++c)
+      projectContact(contacts, colliders, particles, c);
+  };
+  if (listed.size() < kParticleGrain) {
+    for (std::size_t k = 0; k < listed.size(); ++k) project(k);
+    return;
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, listed.size(), kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t k = r.begin(); k != r.end(); ++k) project(k);
+                    });
+}
+
 bool contactsMissing(const ContactPool& contacts, const ColliderPool& colliders,
                      const ParticlePool& particles) {
   if (colliders.size() == 0) return false;

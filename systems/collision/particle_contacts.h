@@ -52,6 +52,11 @@ bool contactsMissing(const ContactPool& contacts, const ColliderPool& colliders,
 void projectContacts(ContactPool& contacts, const ColliderPool& colliders, ParticlePool& particles,
                      SolverKind kind);
 
+// The same for the contacts of the listed particles only (ascending, each once), in parallel over
+// the list: the multigrid cascade's projection after a coarse level's sweeps.
+void projectContactsOf(ContactPool& contacts, const ColliderPool& colliders,
+                       ParticlePool& particles, std::span<const Index> listed);
+
 // Pushes out of the colliders every free particle that ended a solve inside one without having a
 // contact in the pool; returns how many were repaired.
 std::size_t resolveMissedContacts(const ContactPool& contacts, const ColliderPool& colliders,

@@ -89,29 +89,23 @@ std::vector<Index> storeGraph(HierarchyLevel& level, const std::vector<Edge>& ed
   return slotOf;
 }
 
-// A coarse edge's path through the finer level: up to three of its edges (slots).
+// A coarse edge's path through the finer level: its particles (object-local) from one end to
+// the other, the first repeated in front of a path of fewer than three edges, and its rest length.
 struct Path {
-  std::array<Index, 3> edge{};
-  int count = 0;
+  std::array<Index, 4> particle{};
   double rest = 0;
 };
 
 // Stores the paths of a coarse level's edges (`paths` in the sorted order of its edge list,
-// slotOf mapping that order to the color order) and their rest lengths.
+// slotOf mapping that order to the color order) as global indices, and their rest lengths.
 void storePaths(HierarchyLevel& level, const std::vector<Path>& paths,
-                const std::vector<Index>& slotOf) {
-  const std::size_t count = paths.size();
-  level.pathOffset.assign(count + 1, 0);
-  level.pathRest.assign(count, 0);
-  for (std::size_t e = 0; e < count; ++e) {
-    level.pathOffset[slotOf[e] + 1] = static_cast<Index>(paths[e].count);
+                const std::vector<Index>& slotOf, Index first) {
+  level.path.resize(paths.size());
+  level.pathRest.resize(paths.size());
+  for (std::size_t e = 0; e < paths.size(); ++e) {
+    for (std::size_t k = 0; k < 4; ++k) level.path[slotOf[e]][k] = first + paths[e].particle[k];
     level.pathRest[slotOf[e]] = static_cast<Real>(paths[e].rest);
   }
-  for (std::size_t e = 0; e < count; ++e) level.pathOffset[e + 1] += level.pathOffset[e];
-  level.pathEdge.resize(level.pathOffset[count]);
-  for (std::size_t e = 0; e < count; ++e)
-    std::copy_n(paths[e].edge.begin(), paths[e].count,
-                level.pathEdge.begin() + level.pathOffset[slotOf[e]]);
 }
 
 // A regular grid as shapes.h's gridCloth lays it out: vertex (i, j) is j·columns + i, every
@@ -203,7 +197,7 @@ ObjectHierarchy buildObjectHierarchy(const ObjectRecord& object, Index objectInd
     for (std::size_t m = 0; m < members.size(); ++m) level.particles[m] = first + members[m];
     const Adjacency adjacency = buildAdjacency(edges, n);
     const std::vector<Index> slotOf = storeGraph(level, edges, adjacency, rest, first, n);
-    if (out.levels.size() > 1) storePaths(level, paths, slotOf);
+    if (out.levels.size() > 1) storePaths(level, paths, slotOf, first);
     level.parentOffset = {0};
     if (members.size() <= settings.smallestLevel) break;
 
@@ -292,14 +286,14 @@ ObjectHierarchy buildObjectHierarchy(const ObjectRecord& object, Index objectInd
       ++stamp;
       auto add = [&](Index b, std::initializer_list<Index> via) {
         if (b <= a || !coarse[b]) return;
+        // a, the particles via, b; a repeated in front up to four.
         Path path;
-        Index from = a;
-        for (Index to : via) {
-          path.edge[static_cast<std::size_t>(path.count++)] = slotBetween(from, to);
-          from = to;
-        }
-        path.edge[static_cast<std::size_t>(path.count++)] = slotBetween(from, b);
-        for (int k = 0; k < path.count; ++k) path.rest += restHere[path.edge[k]];
+        std::size_t k = 3 - via.size();
+        for (std::size_t pad = 0; pad < k; ++pad) path.particle[pad] = a;
+        for (Index v : via) path.particle[k++] = v;
+        path.particle[3] = b;
+        for (std::size_t step = 2 - via.size(); step < 3; ++step)
+          path.rest += restHere[slotBetween(path.particle[step], path.particle[step + 1])];
         if (seen[b] != stamp) {
           seen[b] = stamp;
           rowSlot[b] = static_cast<Index>(row.size());

@@ -210,7 +210,7 @@ void prolong(const HierarchyLevel& level, ParticlePool& particles, const std::ve
 // curved patch (cloth draped on a sphere) the chord is shorter than the material between its
 // ends, and a chord limit stays slack while that material stretches, so the coarse levels stop
 // carrying stretch exactly where a collider holds the cloth. With the chord c and the current
-// length P of the edge's path through the finer level (HierarchyLevel::pathOf, rest length R),
+// length P of the edge's path through the finer level (HierarchyLevel::path, rest length R),
 // the patch is at rest length when P = R; keeping the shape's chord-to-path ratio, its chord is
 // then c R / P. Where the path is stretched (P > R) the limit is the smaller of that and the
 // rest distance: unchanged for a flat patch (c R / P is the rest distance under uniform
@@ -220,24 +220,22 @@ void prolong(const HierarchyLevel& level, ParticlePool& particles, const std::ve
 // with one particle in contact the edges across the folds of a pile on the ground pulled its
 // layers together (bench/results/2core-AMD-EPYC/solver_speed.md §11). Measured once per cascade,
 // from the positions it starts from.
+
 void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& particles,
                       std::span<const Index> colliderRuns, CascadeScratch& scratch) {
   const auto touches = [&](Index i) { return colliderRuns[i] != colliderRuns[i + 1]; };
-  const auto distance = [&](const std::array<Index, 2>& edge) {
-    return (particles.p[edge[0]] - particles.p[edge[1]]).norm();
-  };
   for (std::size_t l = 1; l < hierarchy.levels.size(); ++l) {
     const HierarchyLevel& level = hierarchy.levels[l];
-    const HierarchyLevel& finer = hierarchy.levels[l - 1];
     Real* limit = scratch.limit.data() + level.scratchBase;
     const auto set = [&](std::size_t e) {
-      const std::array<Index, 2>& edge = level.edges[e];
+      const std::array<Index, 4>& path = level.path[e];
       limit[e] = level.restLength[e];
-      if (!touches(edge[0]) || !touches(edge[1])) return;
-      Real path = 0;
-      for (Index sub : level.pathOf(e)) path += distance(finer.edges[sub]);
-      if (!(path > level.pathRest[e])) return;
-      limit[e] = std::min(limit[e], distance(edge) * level.pathRest[e] / path);
+      if (!touches(path[0]) || !touches(path[3])) return;
+      const Vec3 a = particles.p[path[0]], f = particles.p[path[1]], g = particles.p[path[2]],
+                 b = particles.p[path[3]];
+      const Real length = (f - a).norm() + (g - f).norm() + (b - g).norm();
+      if (!(length > level.pathRest[e])) return;
+      limit[e] = std::min(limit[e], (b - a).norm() * level.pathRest[e] / length);
     };
     if (level.edges.size() < kSerialEdges) {
       for (std::size_t e = 0; e < level.edges.size(); ++e) set(e);
@@ -289,10 +287,10 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
       if (sweeps > 0) sweepLevelTethers(level, particles);
       projections += level.edges.size() * static_cast<std::size_t>(sweeps) +
                      (sweeps > 0 ? level.tetherPin.size() : 0);
-      if (afterLevel) afterLevel(context);
+      if (afterLevel) afterLevel(context, level.particles);
       prolong(hierarchy.levels[l - 1], particles, start, contactOffsets);
     }
-    if (afterLevel) afterLevel(context);
+    if (afterLevel) afterLevel(context, {});
   }
   return projections;
 }

@@ -21,10 +21,13 @@ namespace nucleon {
 // inextensible (stretch compliance 0; a soft object's coarse limits would stiffen it), with
 // sweepsOfLevel(sweepsPerLevel, l) sweeps of coarse level l. Colors of a level run in sequence, the
 // edges of a color in parallel (no two share a particle), prolongation in parallel per particle:
-// the result does not depend on the thread count. After the sweeps of every level, and after the
-// last prolongation, `afterLevel(context)` is called: the solve projects its contacts there, as it
-// does after every fine sweep round, so that a particle the cascade pulls toward a collider is
-// held by its contact instead of being carried into it. `contactOffsets` is the CSR offset table
+// the result does not depend on the thread count. After the sweeps of every level,
+// `afterLevel(context, level.particles)` is called, and after the last prolongation
+// `afterLevel(context, {})` (every particle): the solve projects its contacts there, as it does
+// after every fine sweep round, so that a particle the cascade pulls toward a collider is held by
+// its contact instead of being carried into it. A level's sweeps move only its own particles, and
+// prolongation then overwrites every other particle that moves, so the hook needs to settle only
+// the level's particles. `contactOffsets` is the CSR offset table
 // of the particles' primitive contacts this substep (PrimitiveContactPool::incidenceOffset; empty
 // for none): prolongation leaves a particle with contacts where its contacts put it.
 // `colliderRuns` is the collider contacts' run table (ContactPool::runStart, particle count + 1
@@ -33,7 +36,7 @@ namespace nucleon {
 // when that is shorter than the rest distance), the others with their rest distance; `scratch`
 // holds those limits and the cascade's start positions. Returns the coarse-edge projections and
 // tether projections performed.
-using CascadeHook = void (*)(void* context);
+using CascadeHook = void (*)(void* context, std::span<const Index> moved);
 
 // The sweeps of coarse level l ≥ 1: sweepsPerLevel[l − 1], or its last value beyond the list; 0
 // for an empty list. A 0 for level 1 turns the cascade off.

@@ -62,8 +62,16 @@ void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepC
           : std::span<const Index>();
   report.cascadeProjections += runMultigridCascade(
       pools.hierarchies, pools.objects, pools.particles, pools.cascade, settings.sweepsPerLevel,
-      [](void* p) {
-        projectAllContacts(*static_cast<SolvePools*>(p), SolverKind::ColoredGaussSeidel);
+      [](void* p, std::span<const Index> moved) {
+        SolvePools& solvePools = *static_cast<SolvePools*>(p);
+        if (moved.empty()) {
+          projectAllContacts(solvePools, SolverKind::ColoredGaussSeidel);
+          return;
+        }
+        if (solvePools.primitiveContacts.size() > 0)
+          projectPrimitiveContacts(solvePools.primitiveContacts, solvePools.particles,
+                                   SolverKind::ColoredGaussSeidel);
+        projectContactsOf(solvePools.contacts, solvePools.colliders, solvePools.particles, moved);
       },
       &pools, contactOffsets,
       pools.contacts.size() > 0 ? std::span<const Index>(pools.contacts.runStart)
