@@ -2,18 +2,11 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cstdint>
-#include <thread>
-
-#if defined(__x86_64__) || defined(__i386__)
-#include <immintrin.h>
-#endif
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
-#include <tbb/task_arena.h>
 
 #include "systems/solver/distance_batch.h"
 #include "systems/solver/tether_projection.h"
@@ -48,7 +41,11 @@ void projectLimit(ParticlePool& particles, const std::array<Index, 2>& edge, Rea
 // A level this small is swept on the calling thread: a color of a few hundred edges costs less
 // than the barrier a parallel loop puts after it. The colors are independent sets, and the
 // parallel pieces of a color start a whole number of batches from its start (sweepLevel), so
-// the serial sweep in color order gives the same result bit for bit.
+// the serial sweep in color order gives the same result bit for bit. (Levels of 1,024 to 8,191
+// edges were once shared by both threads in chunks of 64 edges, each colour waiting on a count
+// of done chunks: 1–3% faster on a calm machine, but a thread descheduled inside a chunk held
+// the other at the next colour, and under load the 256² cascade took 1.4–1.7 ms instead of
+// 0.9–1.0: bench/results/2core-AMD-EPYC/solver_speed.md §12.)
 constexpr std::size_t kSerialEdges = 8192;
 
 // Edges [begin, end) of one color: eight at a time where the AVX2 batch runs (the same PBD step,
@@ -85,70 +82,6 @@ void sweepLevel(const HierarchyLevel& level, const Real* limit, ParticlePool& pa
         },
         tbb::static_partitioner());
   }
-}
-
-// All `sweeps` sweeps of a level too small for a parallel loop per colour, shared by the arena's
-// threads without one: every colour of every sweep is cut into chunks of kChunkEdges edges (whole
-// batches from the colour's start, as above), numbered in sweep and colour order, and each thread
-// takes the next number from a shared ticket counter. A chunk may start once every chunk of the
-// earlier colours is done (a count of done chunks, waited on with a spin): chunks of one colour
-// share no free particle, so they run in any order on any thread with the same result, bit for
-// bit. No deadlock: a thread waits only for tickets drawn before its own, by threads that are
-// running them and wait for nothing later; a thread that never joins draws none. A wait that
-// lasts (the other thread descheduled: more threads than cores) yields the core. Against one
-// thread per level, three alternating runs each (2 threads): cloth_hang_128_fast 0.845–0.860 →
-// 0.822–0.831 ms/step, cloth_hang_256_fast 4.36–4.42 → 4.27–4.32, the same states.
-constexpr Index kChunkEdges = 64;
-
-// Waits until `done` reaches `count`: spins a while, then yields the core.
-void waitForChunks(const std::atomic<std::uint64_t>& done, std::uint64_t count) {
-  for (int spins = 0; done.load(std::memory_order_acquire) < count; ++spins) {
-    if (spins < 4096) {
-#if defined(__x86_64__) || defined(__i386__)
-      _mm_pause();
-#endif
-    } else {
-      std::this_thread::yield();
-    }
-  }
-}
-
-constexpr std::size_t kSharedLevelEdges = 1024;  // below: one thread (a chunk or two a colour)
-constexpr std::size_t kMaxSharedColors = 64;
-
-bool sweepLevelShared(const HierarchyLevel& level, const Real* limit, ParticlePool& particles,
-                      int sweeps) {
-  const std::size_t colors = level.colorCount();
-  if (colors == 0 || colors > kMaxSharedColors || sweeps <= 0) return false;
-  // First chunk of each colour within a sweep; the chunks of a sweep.
-  std::array<Index, kMaxSharedColors + 1> colorChunk{};
-  for (std::size_t c = 0; c < colors; ++c) {
-    const Index edges = level.colorOffset[c + 1] - level.colorOffset[c];
-    colorChunk[c + 1] = colorChunk[c] + (edges + kChunkEdges - 1) / kChunkEdges;
-  }
-  const std::uint64_t perSweep = colorChunk[colors];
-  const std::uint64_t total = perSweep * static_cast<std::uint64_t>(sweeps);
-  std::atomic<std::uint64_t> next{0}, done{0};
-  const int threads = std::max(1, tbb::this_task_arena::max_concurrency());
-  tbb::parallel_for(0, threads, [&](int) {
-    for (;;) {
-      const std::uint64_t ticket = next.fetch_add(1, std::memory_order_relaxed);
-      if (ticket >= total) return;
-      const std::uint64_t sweep = ticket / perSweep;
-      const Index within = static_cast<Index>(ticket % perSweep);
-      const std::size_t color = static_cast<std::size_t>(
-          std::upper_bound(colorChunk.begin() + 1, colorChunk.begin() + colors + 1, within) -
-          colorChunk.begin() - 1);
-      // Every chunk of the earlier colours (this sweep's and all earlier sweeps') done.
-      const std::uint64_t before = sweep * perSweep + colorChunk[color];
-      waitForChunks(done, before);
-      const Index begin = level.colorOffset[color] + (within - colorChunk[color]) * kChunkEdges;
-      const Index end = std::min<Index>(level.colorOffset[color + 1], begin + kChunkEdges);
-      sweepEdges(level, limit, particles, begin, end);
-      done.fetch_add(1, std::memory_order_release);
-    }
-  });
-  return true;
 }
 
 // The level's tethers, |p_i − p_pin| ≤ L, two at a time as in the fine tether sweep (a pin never
@@ -279,11 +212,7 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
       const Real* limit =
           contacts ? scratch.limit.data() + level.scratchBase : level.restLength.data();
       const int sweeps = sweepsOfLevel(sweepsPerLevel, l);
-      const bool shared = level.edges.size() >= kSharedLevelEdges &&
-                          level.edges.size() < kSerialEdges &&
-                          sweepLevelShared(level, limit, particles, sweeps);
-      if (!shared)
-        for (int k = 0; k < sweeps; ++k) sweepLevel(level, limit, particles);
+      for (int k = 0; k < sweeps; ++k) sweepLevel(level, limit, particles);
       if (sweeps > 0) sweepLevelTethers(level, particles);
       projections += level.edges.size() * static_cast<std::size_t>(sweeps) +
                      (sweeps > 0 ? level.tetherPin.size() : 0);
