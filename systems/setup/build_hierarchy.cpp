@@ -272,13 +272,8 @@ ObjectHierarchy buildObjectHierarchy(const ObjectRecord& object, Index objectInd
     // here or share a fine neighbour here, and (settings.linkThroughFineEdges) if they have fine
     // neighbours that are neighbours of each other. Rows are built per a, keeping b > a, so that
     // the edge list comes out sorted by (a, b). Each keeps the path of this level's edges between
-    // its two particles with the least rest length (the straightest, where several join them).
-    const auto slotBetween = [&](Index u, Index v) {
-      const Edge key{std::min(u, v), std::max(u, v)};
-      return slotOf[static_cast<std::size_t>(std::lower_bound(edges.begin(), edges.end(), key) -
-                                             edges.begin())];
-    };
-    const std::vector<Real>& restHere = out.levels.back().restLength;
+    // its two particles with the least rest length (the straightest, where several join them):
+    // each step of a path is an edge here, whose rest length is its particles' rest distance.
     std::vector<Edge> nextEdges;
     paths.clear();
     for (Index a : next) {
@@ -293,7 +288,7 @@ ObjectHierarchy buildObjectHierarchy(const ObjectRecord& object, Index objectInd
         for (Index v : via) path.particle[k++] = v;
         path.particle[3] = b;
         for (std::size_t step = 2 - via.size(); step < 3; ++step)
-          path.rest += restHere[slotBetween(path.particle[step], path.particle[step + 1])];
+          path.rest += restDistance(rest, first, path.particle[step], path.particle[step + 1]);
         if (seen[b] != stamp) {
           seen[b] = stamp;
           rowSlot[b] = static_cast<Index>(row.size());
