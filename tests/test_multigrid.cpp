@@ -184,7 +184,8 @@ TEST(Multigrid, RejectsANegativeSweepCount) {
 // cylinder along x, each fine edge across 40° of arc and stretched 5% along it. A level-1 edge
 // along x then spans two stretched fine edges, yet its chord is 2 · 1.05 d cos 20° = 1.973 d,
 // shorter than its rest distance 2 d: the rest-distance limit is slack, and a cascade without
-// contacts moves nothing (bit for bit). With every particle in contact the limit becomes the chord
+// contacts moves nothing (bit for bit), and so does one with every particle on a plane, which
+// bends nothing. With every particle in contact with a curved collider the limit becomes the chord
 // the patch would have at rest length, 2 d cos 20°, and 32 sweeps of level 1 bring the fine
 // edges along x back near rest: measured 0.23% mean stretch from 5%, asserted below 1% (a fifth
 // of the stretch before); the edges across (along z, unstretched before) measured −0.58%, also
@@ -231,11 +232,25 @@ TEST(Multigrid, ContactLimitsGripACurvedPatchThatStretches) {
   runMultigridCascade(hierarchies, state.objects, free, scratch, sweeps);
   for (std::size_t k = 0; k < free.size(); ++k) EXPECT_EQ(free.p[k], wrapped.p[k]) << k;
 
-  std::vector<Index> everyParticleTouching(wrapped.size() + 1);
-  std::iota(everyParticleTouching.begin(), everyParticleTouching.end(), Index(0));
-  ParticlePool touching = wrapped;
-  runMultigridCascade(hierarchies, state.objects, touching, scratch, sweeps, nullptr, nullptr, {},
-                      everyParticleTouching);
+  // Every particle in contact with one collider: a plane first (it bends nothing, so the limits
+  // stay at rest distance and nothing moves), then the cylinder's sphere-like curved collider.
+  const auto touchingEvery = [&](ColliderShape shape) {
+    ColliderPool colliders;
+    colliders.append(shape, Vec3::Zero(), Vec3::UnitY(), Real(radius), 0, 0, 0);
+    ContactPool contacts;
+    contacts.resize(wrapped.size());
+    std::fill(contacts.collider.begin(), contacts.collider.end(), Index(0));
+    std::iota(contacts.particle.begin(), contacts.particle.end(), Index(0));
+    contacts.runStart.resize(wrapped.size() + 1);
+    std::iota(contacts.runStart.begin(), contacts.runStart.end(), Index(0));
+    ParticlePool out = wrapped;
+    runMultigridCascade(hierarchies, state.objects, out, scratch, sweeps, nullptr, nullptr, {},
+                        &contacts, &colliders);
+    return out;
+  };
+  const ParticlePool onPlane = touchingEvery(ColliderShape::Plane);
+  for (std::size_t k = 0; k < onPlane.size(); ++k) EXPECT_EQ(onPlane.p[k], wrapped.p[k]) << k;
+  const ParticlePool touching = touchingEvery(ColliderShape::Sphere);
   const double along = meanStretch(touching, 1, 0), across = meanStretch(touching, 0, 1);
   std::printf("fine edges along x: %.4f%% stretch (5%% before), along z: %.4f%%\n", 100 * along,
               100 * across);

@@ -148,15 +148,21 @@ void prolong(const HierarchyLevel& level, ParticlePool& particles, const std::ve
 // then c R / P. Where the path is stretched (P > R) the limit is the smaller of that and the
 // rest distance: unchanged for a flat patch (c R / P is the rest distance under uniform
 // stretch), it grips a curved one as soon as its material stretches. Only edges with both
-// particles in collider contact get it, a patch the collider holds bent: a fold the cloth may
-// open by itself is no such constraint (holding its chord made free hanging cloths worse), and
-// with one particle in contact the edges across the folds of a pile on the ground pulled its
-// layers together (bench/results/2core-AMD-EPYC/solver_speed.md §11). Measured once per cascade,
-// from the positions it starts from.
+// particles in contact with a curved collider (not a plane) get it, a patch the collider holds
+// bent: a fold the cloth may open by itself is no such constraint (holding its chord made free
+// hanging cloths worse), and on the ground, which bends nothing, the limit only squeezed a pile's
+// folds (bench/results/2core-AMD-EPYC/solver_speed.md §11). Measured once per cascade, from the
+// positions it starts from.
 
 void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& particles,
-                      std::span<const Index> colliderRuns, CascadeScratch& scratch) {
-  const auto touches = [&](Index i) { return colliderRuns[i] != colliderRuns[i + 1]; };
+                      const ContactPool& contacts, const ColliderPool& colliders,
+                      CascadeScratch& scratch) {
+  // A particle held bent: in contact with a curved collider (a plane bends nothing).
+  const auto touches = [&](Index i) {
+    for (Index c = contacts.runStart[i]; c != contacts.runStart[i + 1]; ++c)
+      if (colliders.shape[contacts.collider[c]] != ColliderShape::Plane) return true;
+    return false;
+  };
   for (std::size_t l = 1; l < hierarchy.levels.size(); ++l) {
     const HierarchyLevel& level = hierarchy.levels[l];
     Real* limit = scratch.limit.data() + level.scratchBase;
@@ -190,12 +196,15 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
                                 CascadeScratch& scratch, std::span<const int> sweepsPerLevel,
                                 CascadeHook afterLevel, void* context,
                                 std::span<const Index> contactOffsets,
-                                std::span<const Index> colliderRuns) {
+                                const ContactPool* colliderContacts,
+                                const ColliderPool* colliders) {
   if (sweepsOfLevel(sweepsPerLevel, 1) <= 0) return 0;
   std::vector<Vec3>& start = scratch.start;
   start.resize(particles.size());
   scratch.limit.resize(hierarchies.coarseEdges);
-  const bool contacts = colliderRuns.size() == particles.size() + 1;
+  const bool contacts = colliderContacts != nullptr && colliders != nullptr &&
+                        colliderContacts->size() > 0 &&
+                        colliderContacts->runStart.size() == particles.size() + 1;
   std::size_t projections = 0;
   for (const ObjectHierarchy& hierarchy : hierarchies.objects) {
     if (!cascades(hierarchy, objects)) continue;
@@ -206,7 +215,7 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
           for (Index i = r.begin(); i != r.end(); ++i) start[i] = particles.p[i];
         },
         tbb::static_partitioner());
-    if (contacts) setContactLimits(hierarchy, particles, colliderRuns, scratch);
+    if (contacts) setContactLimits(hierarchy, particles, *colliderContacts, *colliders, scratch);
     for (std::size_t l = hierarchy.levels.size() - 1; l >= 1; --l) {
       const HierarchyLevel& level = hierarchy.levels[l];
       const Real* limit =

@@ -10,6 +10,8 @@
 #include <span>
 #include <vector>
 
+#include "components/collider_pool.h"
+#include "components/contact_pool.h"
 #include "components/level_hierarchy.h"
 #include "components/objects.h"
 #include "components/particles.h"
@@ -30,8 +32,8 @@ namespace nucleon {
 // the level's particles. `contactOffsets` is the CSR offset table
 // of the particles' primitive contacts this substep (PrimitiveContactPool::incidenceOffset; empty
 // for none): prolongation leaves a particle with contacts where its contacts put it.
-// `colliderRuns` is the collider contacts' run table (ContactPool::runStart, particle count + 1
-// entries; empty for none): a coarse edge with both particles in collider contact is swept with a
+// `colliderContacts` and `colliders` are the substep's collider contacts (null for none): a coarse
+// edge with both particles in contact with a curved collider (a sphere) is swept with a
 // limit that sees the stretch of a curved patch (the chord its path would have at rest length,
 // when that is shorter than the rest distance), the others with their rest distance; `scratch`
 // holds those limits and the cascade's start positions. Returns the coarse-edge projections and
@@ -46,7 +48,8 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
                                 CascadeScratch& scratch, std::span<const int> sweepsPerLevel,
                                 CascadeHook afterLevel = nullptr, void* context = nullptr,
                                 std::span<const Index> contactOffsets = {},
-                                std::span<const Index> colliderRuns = {});
+                                const ContactPool* colliderContacts = nullptr,
+                                const ColliderPool* colliders = nullptr);
 
 // The coarse-edge projections one cascade performs (for throughput and work figures).
 std::size_t cascadeProjections(const LevelHierarchies& hierarchies,

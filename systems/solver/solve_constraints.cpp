@@ -73,9 +73,7 @@ void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepC
                                    SolverKind::ColoredGaussSeidel);
         projectContactsOf(solvePools.contacts, solvePools.colliders, solvePools.particles, moved);
       },
-      &pools, contactOffsets,
-      pools.contacts.size() > 0 ? std::span<const Index>(pools.contacts.runStart)
-                                : std::span<const Index>());
+      &pools, contactOffsets, &pools.contacts, &pools.colliders);
   if (pools.colliders.size() > 0 &&
       contactsMissing(pools.contacts, pools.colliders, pools.particles)) {
     detectContacts(pools.contacts, pools.colliders, pools.particles, context.h, pools.particles.p);
