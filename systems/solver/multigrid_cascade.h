@@ -29,7 +29,8 @@ namespace nucleon {
 // after every fine sweep round, so that a particle the cascade pulls toward a collider is held by
 // its contact instead of being carried into it. A level's sweeps move only its own particles, and
 // prolongation then overwrites every other particle that moves, so the hook needs to settle only
-// the level's particles. `contactOffsets` is the CSR offset table
+// the level's particles (the solve settles all of them while there are primitive contacts,
+// whose projection moves particles of any level). `contactOffsets` is the CSR offset table
 // of the particles' primitive contacts this substep (PrimitiveContactPool::incidenceOffset; empty
 // for none): prolongation leaves a particle with contacts where its contacts put it.
 // `colliderContacts` and `colliders` are the substep's collider contacts (null for none): a coarse

@@ -64,13 +64,12 @@ void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepC
       pools.hierarchies, pools.objects, pools.particles, pools.cascade, settings.sweepsPerLevel,
       [](void* p, std::span<const Index> moved) {
         SolvePools& solvePools = *static_cast<SolvePools*>(p);
-        if (moved.empty()) {
+        // The primitive contacts move particles of any level, which the collider contacts
+        // projected after them must then settle: all of them, as after a sweep round.
+        if (moved.empty() || solvePools.primitiveContacts.size() > 0) {
           projectAllContacts(solvePools, SolverKind::ColoredGaussSeidel);
           return;
         }
-        if (solvePools.primitiveContacts.size() > 0)
-          projectPrimitiveContacts(solvePools.primitiveContacts, solvePools.particles,
-                                   SolverKind::ColoredGaussSeidel);
         projectContactsOf(solvePools.contacts, solvePools.colliders, solvePools.particles, moved);
       },
       &pools, contactOffsets, &pools.contacts, &pools.colliders);
