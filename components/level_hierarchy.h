@@ -47,9 +47,9 @@
 // fine-scale property, left to the fine sweeps. The converse holds for a shape bent while the
 // solve runs: over a curved patch the chord is shorter than the material, and the limit is slack
 // while the material stretches. A cloth bent by a collider (draped over a sphere) cannot
-// straighten, so where both particles of a coarse edge touch a curved collider (a sphere; a
-// plane bends nothing) the cascade limits its chord to the one its path would have at rest
-// length instead (multigrid_cascade.h).
+// straighten, so where both particles of a coarse edge touch a curved collider (a sphere, or a
+// mesh at rest; a plane bends nothing) the cascade limits its chord to the one its path would
+// have at rest length instead (multigrid_cascade.h).
 //
 // Intended use, one coarse-to-fine cascade per substep (Müller 2008 §4), with each particle moved
 // by its parents' TOTAL displacement since the cascade began, so that what the coarser levels did

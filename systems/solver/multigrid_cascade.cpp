@@ -148,19 +148,35 @@ void prolong(const HierarchyLevel& level, ParticlePool& particles, const std::ve
 // then c R / P. Where the path is stretched (P > R) the limit is the smaller of that and the
 // rest distance: unchanged for a flat patch (c R / P is the rest distance under uniform
 // stretch), it grips a curved one as soon as its material stretches. Only edges with both
-// particles in contact with a curved collider (not a plane) get it, a patch the collider holds
-// bent: a fold the cloth may open by itself is no such constraint (holding its chord made free
-// hanging cloths worse), and on the ground, which bends nothing, the limit only squeezed a pile's
-// folds (bench/results/2core-AMD-EPYC/solver_speed.md §11). Measured once per cascade, from the
+// particles held bent get it: in contact with a sphere collider, or with a mesh collider (any
+// particle of inverse mass 0) that is at rest this substep. A fold the cloth may open by itself is
+// no such constraint (holding its chord made free hanging cloths worse); the ground bends nothing
+// (there the limit only squeezed a pile's folds); and a curtain pushed by a moving box, its shape
+// measured at the prediction, got chords no motion could give it (an edge at 3.6 times its rest
+// length: bench/results/2core-AMD-EPYC/solver_speed.md §11). Measured once per cascade, from the
 // positions it starts from.
 
 void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& particles,
                       const ContactPool& contacts, const ColliderPool& colliders,
-                      CascadeScratch& scratch) {
-  // A particle held bent: in contact with a curved collider (a plane bends nothing).
+                      const PrimitiveContactPool* primitive, CascadeScratch& scratch) {
+  const bool withPrimitive = primitive != nullptr && primitive->size() > 0 &&
+                             primitive->incidenceOffset.size() == particles.size() + 1;
+  // A particle held bent: by a sphere collider (a plane bends nothing), or by a primitive contact
+  // with a particle of inverse mass 0 that does not move this substep.
   const auto touches = [&](Index i) {
-    for (Index c = contacts.runStart[i]; c != contacts.runStart[i + 1]; ++c)
-      if (colliders.shape[contacts.collider[c]] != ColliderShape::Plane) return true;
+    if (contacts.size() > 0)
+      for (Index c = contacts.runStart[i]; c != contacts.runStart[i + 1]; ++c)
+        if (colliders.shape[contacts.collider[c]] != ColliderShape::Plane) return true;
+    if (withPrimitive)
+      for (Index k = primitive->incidenceOffset[i]; k != primitive->incidenceOffset[i + 1]; ++k) {
+        const Index c = primitive->incidence[k] >> 2;
+        for (int s = 0; s < 4; ++s) {
+          const Index j = primitive->particles[c][s];
+          if (primitive->coefficient[c][s] != 0 && particles.w[j] == 0 &&
+              particles.p[j] == particles.x[j])
+            return true;
+        }
+      }
     return false;
   };
   for (std::size_t l = 1; l < hierarchy.levels.size(); ++l) {
@@ -196,15 +212,16 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
                                 CascadeScratch& scratch, std::span<const int> sweepsPerLevel,
                                 CascadeHook afterLevel, void* context,
                                 std::span<const Index> contactOffsets,
-                                const ContactPool* colliderContacts,
-                                const ColliderPool* colliders) {
+                                const ContactPool* colliderContacts, const ColliderPool* colliders,
+                                const PrimitiveContactPool* primitiveContacts) {
   if (sweepsOfLevel(sweepsPerLevel, 1) <= 0) return 0;
   std::vector<Vec3>& start = scratch.start;
   start.resize(particles.size());
   scratch.limit.resize(hierarchies.coarseEdges);
   const bool contacts = colliderContacts != nullptr && colliders != nullptr &&
-                        colliderContacts->size() > 0 &&
-                        colliderContacts->runStart.size() == particles.size() + 1;
+                        ((colliderContacts->size() > 0 &&
+                          colliderContacts->runStart.size() == particles.size() + 1) ||
+                         (primitiveContacts != nullptr && primitiveContacts->size() > 0));
   std::size_t projections = 0;
   for (const ObjectHierarchy& hierarchy : hierarchies.objects) {
     if (!cascades(hierarchy, objects)) continue;
@@ -215,7 +232,9 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
           for (Index i = r.begin(); i != r.end(); ++i) start[i] = particles.p[i];
         },
         tbb::static_partitioner());
-    if (contacts) setContactLimits(hierarchy, particles, *colliderContacts, *colliders, scratch);
+    if (contacts)
+      setContactLimits(hierarchy, particles, *colliderContacts, *colliders, primitiveContacts,
+                       scratch);
     for (std::size_t l = hierarchy.levels.size() - 1; l >= 1; --l) {
       const HierarchyLevel& level = hierarchy.levels[l];
       const Real* limit =

@@ -15,6 +15,7 @@
 #include "components/level_hierarchy.h"
 #include "components/objects.h"
 #include "components/particles.h"
+#include "components/primitive_contact_pool.h"
 #include "nucleon/types.h"
 
 namespace nucleon {
@@ -33,12 +34,13 @@ namespace nucleon {
 // whose projection moves particles of any level). `contactOffsets` is the CSR offset table
 // of the particles' primitive contacts this substep (PrimitiveContactPool::incidenceOffset; empty
 // for none): prolongation leaves a particle with contacts where its contacts put it.
-// `colliderContacts` and `colliders` are the substep's collider contacts (null for none): a coarse
-// edge with both particles in contact with a curved collider (a sphere) is swept with a
-// limit that sees the stretch of a curved patch (the chord its path would have at rest length,
-// when that is shorter than the rest distance), the others with their rest distance; `scratch`
-// holds those limits and the cascade's start positions. Returns the coarse-edge projections and
-// tether projections performed.
+// `colliderContacts` and `colliders` are the substep's collider contacts, `primitiveContacts` its
+// primitive contacts (null for none): a coarse edge whose two particles are held bent, by a
+// sphere collider or by a primitive contact with a particle of inverse mass 0 at rest (a static
+// mesh collider), is swept with a limit that sees the stretch of a curved patch (the chord its
+// path would have at rest length, when that is shorter than the rest distance), the others with
+// their rest distance; `scratch` holds those limits and the cascade's start positions. Returns the
+// coarse-edge projections and tether projections performed.
 using CascadeHook = void (*)(void* context, std::span<const Index> moved);
 
 // The sweeps of coarse level l ≥ 1: sweepsPerLevel[l − 1], or its last value beyond the list; 0
@@ -50,7 +52,8 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
                                 CascadeHook afterLevel = nullptr, void* context = nullptr,
                                 std::span<const Index> contactOffsets = {},
                                 const ContactPool* colliderContacts = nullptr,
-                                const ColliderPool* colliders = nullptr);
+                                const ColliderPool* colliders = nullptr,
+                                const PrimitiveContactPool* primitiveContacts = nullptr);
 
 // The coarse-edge projections one cascade performs (for throughput and work figures).
 std::size_t cascadeProjections(const LevelHierarchies& hierarchies,

@@ -72,7 +72,7 @@ void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepC
         }
         projectContactsOf(solvePools.contacts, solvePools.colliders, solvePools.particles, moved);
       },
-      &pools, contactOffsets, &pools.contacts, &pools.colliders);
+      &pools, contactOffsets, &pools.contacts, &pools.colliders, &pools.primitiveContacts);
   if (pools.colliders.size() > 0 &&
       contactsMissing(pools.contacts, pools.colliders, pools.particles)) {
     detectContacts(pools.contacts, pools.colliders, pools.particles, context.h, pools.particles.p);
