@@ -65,6 +65,7 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -126,11 +127,13 @@ struct LevelHierarchies {
   std::size_t coarseEdges = 0;  // the edges of every coarse level of every object
 };
 
-// The cascade's per-substep scratch: the positions when it began, and the limit each coarse edge
-// is swept with (at HierarchyLevel::scratchBase of its level) while particles touch colliders.
+// The cascade's per-substep scratch: the positions when it began, the limit each coarse edge is
+// swept with (at HierarchyLevel::scratchBase of its level) while particles touch colliders, and
+// per particle whether a collider holds it bent.
 struct CascadeScratch {
   std::vector<Vec3> start;
   std::vector<Real> limit;
+  std::vector<std::uint8_t> held;
 };
 
 }  // namespace nucleon

@@ -589,6 +589,7 @@ void World::step(double dt) {
       attachLevelTethers(s.hierarchies, s.constraints.tether, s.particles.size());
       s.cascade.start.resize(s.particles.size());
       s.cascade.limit.resize(s.hierarchies.coarseEdges);
+      s.cascade.held.resize(s.particles.size());
     } else
       s.hierarchies.objects.clear();
     s.plan = buildSweepPlan(s.solver, s.objects, s.constraints, s.particles);

@@ -48,6 +48,22 @@ void projectLimit(ParticlePool& particles, const std::array<Index, 2>& edge, Rea
 // 0.9–1.0: bench/results/2core-AMD-EPYC/solver_speed.md §12.)
 constexpr std::size_t kSerialEdges = 8192;
 
+// f(k) for k in [0, count): on the calling thread when `serial` (a small level), else split
+// statically into pieces of `grain` among the arena's threads.
+template <typename F>
+void forEachIndex(std::size_t count, bool serial, std::size_t grain, F&& f) {
+  if (serial) {
+    for (std::size_t k = 0; k < count; ++k) f(k);
+    return;
+  }
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, count, grain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k) f(k);
+      },
+      tbb::static_partitioner());
+}
+
 // Edges [begin, end) of one color: eight at a time where the AVX2 batch runs (the same PBD step,
 // without multipliers), the rest one by one.
 void sweepEdges(const HierarchyLevel& level, const Real* limit, ParticlePool& particles,
@@ -100,16 +116,7 @@ void sweepLevelTethers(const HierarchyLevel& level, ParticlePool& particles) {
               : projectOntoTether(x, particles.p[level.tetherPin[t]], level.tetherLimit[t]);
     particles.p[i] = x;
   };
-  if (level.edges.size() < kSerialEdges) {
-    for (std::size_t k = 0; k < level.particles.size(); ++k) project(k);
-    return;
-  }
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, level.particles.size(), kParticleGrain),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t k = r.begin(); k != r.end(); ++k) project(k);
-      },
-      tbb::static_partitioner());
+  forEachIndex(level.particles.size(), level.edges.size() < kSerialEdges, kParticleGrain, project);
 }
 
 // p_f = q_f + Σ_j w_fj (p_j − q_j) for the fine particles of `level` (total displacement), except
@@ -138,7 +145,7 @@ void prolong(const HierarchyLevel& level, ParticlePool& particles, const std::ve
       tbb::static_partitioner());
 }
 
-// The limit each coarse edge is swept with this substep, where the cloth touches a collider.
+// The limit each coarse edge is swept with this substep, where a collider holds the cloth.
 // Its rest-pose distance bounds the chord only while the patch it stands for lies flat: over a
 // curved patch (cloth draped on a sphere) the chord is shorter than the material between its
 // ends, and a chord limit stays slack while that material stretches, so the coarse levels stop
@@ -155,15 +162,15 @@ void prolong(const HierarchyLevel& level, ParticlePool& particles, const std::ve
 // measured at the prediction, got chords no motion could give it (an edge at 3.6 times its rest
 // length: bench/results/2core-AMD-EPYC/solver_speed.md §11). Measured once per cascade, from the
 // positions it starts from.
-
 void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& particles,
                       const ContactPool& contacts, const ColliderPool& colliders,
                       const PrimitiveContactPool* primitive, CascadeScratch& scratch) {
   const bool withPrimitive = primitive != nullptr && primitive->size() > 0 &&
                              primitive->incidenceOffset.size() == particles.size() + 1;
-  // A particle held bent: by a sphere collider (a plane bends nothing), or by a primitive contact
-  // with a particle of inverse mass 0 that does not move this substep.
-  const auto touches = [&](Index i) {
+  // Each of the object's particles held bent or not, once: by a sphere collider (a plane bends
+  // nothing), or by a primitive contact with a particle of inverse mass 0 that does not move this
+  // substep.
+  const auto heldBent = [&](Index i) {
     if (contacts.size() > 0)
       for (Index c = contacts.runStart[i]; c != contacts.runStart[i + 1]; ++c)
         if (colliders.shape[contacts.collider[c]] != ColliderShape::Plane) return true;
@@ -179,29 +186,27 @@ void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& part
       }
     return false;
   };
+  std::uint8_t* held = scratch.held.data();
+  const Index first = hierarchy.firstParticle;
+  forEachIndex(hierarchy.particleCount, hierarchy.particleCount < kSerialEdges, kParticleGrain,
+               [&](std::size_t k) {
+                 const Index i = first + static_cast<Index>(k);
+                 held[i] = heldBent(i) ? 1 : 0;
+               });
   for (std::size_t l = 1; l < hierarchy.levels.size(); ++l) {
     const HierarchyLevel& level = hierarchy.levels[l];
     Real* limit = scratch.limit.data() + level.scratchBase;
-    const auto set = [&](std::size_t e) {
-      const std::array<Index, 4>& path = level.path[e];
-      limit[e] = level.restLength[e];
-      if (!touches(path[0]) || !touches(path[3])) return;
-      const Vec3 a = particles.p[path[0]], f = particles.p[path[1]], g = particles.p[path[2]],
-                 b = particles.p[path[3]];
-      const Real length = (f - a).norm() + (g - f).norm() + (b - g).norm();
-      if (!(length > level.pathRest[e])) return;
-      limit[e] = std::min(limit[e], (b - a).norm() * level.pathRest[e] / length);
-    };
-    if (level.edges.size() < kSerialEdges) {
-      for (std::size_t e = 0; e < level.edges.size(); ++e) set(e);
-      continue;
-    }
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, level.edges.size(), kEdgeGrain),
-        [&](const tbb::blocked_range<std::size_t>& r) {
-          for (std::size_t e = r.begin(); e != r.end(); ++e) set(e);
-        },
-        tbb::static_partitioner());
+    forEachIndex(level.edges.size(), level.edges.size() < kSerialEdges, kEdgeGrain,
+                 [&](std::size_t e) {
+                   const std::array<Index, 4>& path = level.path[e];
+                   limit[e] = level.restLength[e];
+                   if (!held[path[0]] || !held[path[3]]) return;
+                   const Vec3 a = particles.p[path[0]], f = particles.p[path[1]],
+                              g = particles.p[path[2]], b = particles.p[path[3]];
+                   const Real length = (f - a).norm() + (g - f).norm() + (b - g).norm();
+                   if (!(length > level.pathRest[e])) return;
+                   limit[e] = std::min(limit[e], (b - a).norm() * level.pathRest[e] / length);
+                 });
   }
 }
 
@@ -218,6 +223,7 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
   std::vector<Vec3>& start = scratch.start;
   start.resize(particles.size());
   scratch.limit.resize(hierarchies.coarseEdges);
+  scratch.held.resize(particles.size());
   const bool contacts = colliderContacts != nullptr && colliders != nullptr &&
                         ((colliderContacts->size() > 0 &&
                           colliderContacts->runStart.size() == particles.size() + 1) ||
