@@ -15,6 +15,7 @@
 
 #include "systems/collision/broad_phase.h"
 #include "systems/collision/ccd.h"
+#include "systems/collision/pair_distance_lanes.h"
 #include "systems/collision/particle_contacts.h"
 #include "systems/collision/primitive_distance.h"
 
@@ -234,7 +235,8 @@ bool makeContact(const PairView& v, const CollisionPrimitives& prims, const Part
   // Along the predicted motion the distance is at least max(d0 − t L, d1 − (1 − t) L), whose
   // smallest value over t is (d0 + d1 − L) / 2.
   const auto c1 = closestCoefficients(v.kind, X1);
-  const double endDistance = combine(c1, X1, v.count).norm();
+  const Vec3d gap1 = combine(c1, X1, v.count);
+  const double endDistance = gap1.norm();
   // A non-finite prediction gets no contact, so that it cannot spread to the pair's other
   // particles; the update resets and counts it.
   if (!std::isfinite(endDistance)) return false;
@@ -243,12 +245,18 @@ bool makeContact(const PairView& v, const CollisionPrimitives& prims, const Part
 
   // The configuration the contact is linearised at: where the pair first comes within its
   // contact distance if it does during the predicted motion, else the predicted end.
-  // CCD only where the bound above leaves room to come within the contact distance.
+  // CCD only where the bound above leaves room to come within the contact distance, and not
+  // where the pair starts within it: CCD's first step would answer the start (t = 0).
   const bool mayImpact = (startDistance + endDistance - motion) / 2 <= double(v.radius);
+  const bool touching = mayImpact && startDistance <= double(v.radius);
   // Without CCD the contact is linearised at the predicted end, with the end's closest points
-  // unless they touch: a duplicate is known before anything more is computed.
+  // unless they touch: a duplicate is known before anything more is computed (and likewise at
+  // the start for a pair that starts within reach).
   if (!mayImpact && endDistance > 1e-9 * std::max(1.0, X1[0].cwiseAbs().maxCoeff()) &&
       duplicateFeature(v, c1, prims))
+    return false;
+  if (touching && startDistance > 1e-9 * std::max(1.0, X0[0].cwiseAbs().maxCoeff()) &&
+      duplicateFeature(v, c0, prims))
     return false;
   if (v.objectA == v.objectB) {
     // Held apart by the mesh itself: no contact between primitives of one object that are closer
@@ -262,13 +270,19 @@ bool makeContact(const PairView& v, const CollisionPrimitives& prims, const Part
         combine(closestCoefficients(v.kind, R), R, v.count).norm() < double(v.radius))
       return false;
   }
-  const CcdResult impact =
-      mayImpact ? pairCcd(v.kind, X0, X1, double(v.radius)) : CcdResult{false, 1.0};
+  const CcdResult impact = mayImpact && !touching ? pairCcd(v.kind, X0, X1, double(v.radius))
+                                                  : CcdResult{touching, touching ? 0.0 : 1.0};
   const double t = impact.hit ? std::clamp(impact.toi, 0.0, 1.0) : 1.0;
+  // At either end of the motion the closest points are those above ((1 − t) X0 + t X1 is then
+  // X0 or X1 exactly).
   Vec3d X[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
   for (int k = 0; k < v.count; ++k) X[k] = (1 - t) * X0[k] + t * X1[k];
-  std::array<double, 4> c = closestCoefficients(v.kind, X);
-  Vec3d n = combine(c, X, v.count);
+  std::array<double, 4> c = t == 0 ? c0 : c1;
+  Vec3d n = t == 0 ? gap0 : gap1;
+  if (t > 0 && t < 1) {
+    c = closestCoefficients(v.kind, X);
+    n = combine(c, X, v.count);
+  }
   const double scale = 1e-9 * std::max(1.0, X[0].cwiseAbs().maxCoeff());
   if (n.norm() <= scale) {
     // Touching at the impact (zero contact distance): the side the pair started on.
@@ -305,6 +319,70 @@ bool makeContact(const PairView& v, const CollisionPrimitives& prims, const Part
     out.inverseMass += particles.w[out.particles[k]] * out.coefficient[k] * out.coefficient[k];
   return true;
 }
+
+// The narrow phase's first filter over a block of up to kPairLanes consecutive candidates
+// (systems/collision/pair_distance_lanes.h): their vertex–face and edge–edge pairs are measured
+// in float lanes, and those whose bounds, less the lanes' error, keep them out of reach over the
+// motion get their start distance and lower bound from there, as makeContact would give them
+// (within that error, on the safe side); the rest go on to makeContact.
+struct LaneFilter {
+  PairView view[kPairLanes];
+  bool measured[kPairLanes] = {};  // the candidate needs nothing more
+  int laneOf[kPairLanes] = {};     // its lane in the lanes of its kind; −1 if in none
+  PairLanes lanes[2] = {};         // vertex–face, edge–edge
+  PairLaneBounds bounds[2] = {};
+  int used[2] = {0, 0};
+
+  void clear() { used[0] = used[1] = 0; }
+
+  void add(std::size_t slot, const ParticlePool& particles) {
+    const PairView& v = view[slot];
+    laneOf[slot] = -1;
+    const int group = v.kind == PairKind::VertexFace ? 0 : v.kind == PairKind::EdgeEdge ? 1 : -1;
+    if (group < 0) return;
+    PairLanes& l = lanes[group];
+    const int lane = used[group];
+    const Vec3 x0 = particles.x[v.id[0]], p0 = particles.p[v.id[0]];
+    bool finite = true;
+    for (int k = 1; k < 4; ++k) {
+      const Vec3 start = particles.x[v.id[k]] - x0, end = particles.p[v.id[k]] - p0;
+      for (int axis = 0; axis < 3; ++axis) {
+        l.start[k][axis][lane] = static_cast<float>(start[axis]);
+        l.end[k][axis][lane] = static_cast<float>(end[axis]);
+        finite &= std::isfinite(l.start[k][axis][lane]) && std::isfinite(l.end[k][axis][lane]);
+      }
+    }
+    // A pair with a coordinate that is not finite is left to makeContact, which does not make
+    // its contact.
+    if (!finite) return;
+    laneOf[slot] = lane;
+    ++used[group];
+  }
+
+  void run() {
+    if (used[0] > 0) vertexFaceLaneBounds(lanes[0], bounds[0]);
+    if (used[1] > 0) edgeEdgeLaneBounds(lanes[1], bounds[1]);
+  }
+
+  // Whether the lanes keep candidate `slot` out of reach: then `startDistance` and `lowerBound`
+  // are set as makeContact sets them for a pair it rules out.
+  bool outOfReach(std::size_t slot, const PairView& v, double& startDistance,
+                  double& lowerBound) const {
+    const int lane = laneOf[slot];
+    if (lane < 0) return false;
+    const PairLaneBounds& b = bounds[v.kind == PairKind::VertexFace ? 0 : 1];
+    const double error = double(kPairLaneTolerance) * double(b.extent[lane]);
+    const double start = double(b.startDistance[lane]) - error,
+                 end = double(b.endDistance[lane]) - error, motion = double(b.motion[lane]) + error;
+    const double bound = std::max(start - motion, (start + end - motion) / 2);
+    if (!(bound > double(v.radius) + double(kPrimitiveContactMargin) + kBoundTolerance &&
+          start > 0))
+      return false;
+    startDistance = start;
+    lowerBound = bound;
+    return true;
+  }
+};
 
 // The step Δλ of contact c at the current positions: C = n · Σ c_k p_k − distance must not be
 // negative, and with stickiness s a separation C < s is pulled back to 0 as well.
@@ -777,26 +855,43 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
           made.clear();
           const std::size_t end = std::min(n, (chunk + 1) * kContactChunk);
           PrimitiveContactRecord record;
-          for (std::size_t i = chunk * kContactChunk; i < end; ++i) {
-            const PairKind kind = candidates.kind[i];
-            const Index a = candidates.first[i], b = candidates.second[i];
-            if (carry && contacts.lowerBound[i] > -kInfinity) {
-              // Also a lower bound on the distance at the start of the substep.
-              const int listA = primitiveListOf(kind, true), listB = primitiveListOf(kind, false);
-              const PrimitiveContactPool::StrayAndRadius sideA = strayOf[listA][a],
-                                                         sideB = strayOf[listB][b];
-              const double over = contacts.lowerBound[i] - sideA.stray - sideB.stray;
-              const Real radius = Real(sideA.radius) + Real(sideB.radius);
-              if (over > double(radius) + double(kPrimitiveContactMargin) + kBoundTolerance) {
-                contacts.startDistance[i] = over;
-                contacts.lowerBound[i] = over;
-                continue;
+          LaneFilter filter;
+          for (std::size_t block = chunk * kContactChunk; block < end; block += kPairLanes) {
+            const std::size_t blockEnd = std::min(end, block + std::size_t{kPairLanes});
+            filter.clear();
+            for (std::size_t i = block; i < blockEnd; ++i) {
+              const std::size_t slot = i - block;
+              filter.measured[slot] = false;
+              const PairKind kind = candidates.kind[i];
+              const Index a = candidates.first[i], b = candidates.second[i];
+              if (carry && contacts.lowerBound[i] > -kInfinity) {
+                // Also a lower bound on the distance at the start of the substep.
+                const int listA = primitiveListOf(kind, true), listB = primitiveListOf(kind, false);
+                const PrimitiveContactPool::StrayAndRadius sideA = strayOf[listA][a],
+                                                           sideB = strayOf[listB][b];
+                const double over = contacts.lowerBound[i] - sideA.stray - sideB.stray;
+                const Real radius = Real(sideA.radius) + Real(sideB.radius);
+                if (over > double(radius) + double(kPrimitiveContactMargin) + kBoundTolerance) {
+                  contacts.startDistance[i] = over;
+                  contacts.lowerBound[i] = over;
+                  filter.measured[slot] = true;
+                  continue;
+                }
               }
+              filter.view[slot] = viewOf(primitives, kind, a, b);
+              filter.add(slot, particles);
             }
-            const PairView v = viewOf(primitives, kind, a, b);
-            if (makeContact(v, primitives, particles, surfaces, contacts.startDistance[i],
-                            contacts.lowerBound[i], record))
-              made.push_back(record);
+            filter.run();
+            for (std::size_t i = block; i < blockEnd; ++i) {
+              const std::size_t slot = i - block;
+              if (filter.measured[slot]) continue;
+              const PairView& v = filter.view[slot];
+              if (filter.outOfReach(slot, v, contacts.startDistance[i], contacts.lowerBound[i]))
+                continue;
+              if (makeContact(v, primitives, particles, surfaces, contacts.startDistance[i],
+                              contacts.lowerBound[i], record))
+                made.push_back(record);
+            }
           }
         }
       });
