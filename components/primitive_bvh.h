@@ -56,6 +56,9 @@ inline bool overlaps(const PrimitiveBox& a, const PrimitiveBox& b) {
                                                 const PrimitiveBox& startB,
                                                 const PrimitiveBox& endB, double since = 0) {
   if (startA.isEmpty() || endA.isEmpty() || startB.isEmpty() || endB.isEmpty()) return false;
+  // Most pairs that meet overlap at the start: comparing the floats themselves is exact, and
+  // whenever they overlap so do the double figures below (each g0 is then at least the tolerance).
+  if (since == 0 && overlaps(startA, startB)) return true;
   constexpr double kTolerance = 1e-9;
   // g(t) = g0 + t (g1 − g0) ≥ 0 for the room between a lower and an upper side, over the
   // interval from `since` (g0 taken there) to its end. Most pairs that meet already overlap at

@@ -1,8 +1,9 @@
 // The narrow phase's float lanes (systems/collision/pair_distance_lanes.h): every distance and
 // motion they give is within kPairLaneTolerance × the lane's extent of the exact double figure,
-// so that a bound less that amount is a true lower bound, on random cloth-sized pairs far from
-// the origin, on the degenerate shapes a cloth pile makes (slivers, parallel and crossing edges,
-// coincident and collapsed primitives) and on the public CCD query set's configurations.
+// so that a bound less that amount is a true lower bound, and every edge–edge classification of
+// the closest points agrees with the exact (clamped) closest points, on random cloth-sized pairs
+// far from the origin, on the degenerate shapes a cloth pile makes (slivers, parallel and crossing
+// edges, coincident and collapsed primitives) and on the public CCD query set's configurations.
 #include <array>
 #include <cmath>
 #include <fstream>
@@ -48,9 +49,37 @@ double exactMotion(const PairMotion& m) {
   return a + b;
 }
 
+// Whether the exact closest points of two edges (Ericson's clamped parameters, which the narrow
+// phase's duplicateFeature reads) lie at an end of either edge.
+bool atAnEdgeEnd(const std::array<Vec3d, 4>& y) {
+  const auto s = closestBetweenSegments(y[0], y[1], y[2], y[3]);
+  return s[0] == 0 || s[0] == 1 || s[1] == 0 || s[1] == 1;
+}
+
+// Edge–edge lanes classified, by PairFeature, over all the checks of a test.
+struct FeatureCounts {
+  int counts[3] = {0, 0, 0};
+};
+
+// Checks one classification of an edge–edge lane against the exact closest points.
+void checkFeature(float feature, const std::array<Vec3d, 4>& y, FeatureCounts& tally,
+                  std::size_t pair) {
+  ASSERT_TRUE(feature == float(kUnknownFeature) || feature == float(kEdgeInteriors) ||
+              feature == float(kEdgeEnds));
+  ++tally.counts[int(feature)];
+  if (feature == float(kEdgeInteriors)) {
+    EXPECT_FALSE(atAnEdgeEnd(y)) << "pair " << pair;
+  }
+  if (feature == float(kEdgeEnds)) {
+    EXPECT_TRUE(atAnEdgeEnd(y)) << "pair " << pair;
+  }
+}
+
 // Runs the lanes over `motions` (all of one kind) and checks every lane against the exact
 // figures; returns how many lanes were checked.
-int checkLanes(const std::vector<PairMotion>& motions) {
+int checkLanes(const std::vector<PairMotion>& motions, FeatureCounts* features = nullptr) {
+  FeatureCounts unused;
+  FeatureCounts& tally = features ? *features : unused;
   int checked = 0;
   for (std::size_t begin = 0; begin < motions.size(); begin += kPairLanes) {
     PairLanes lanes{};
@@ -91,6 +120,13 @@ int checkLanes(const std::vector<PairMotion>& motions) {
         extent = std::max({extent, (start[k] - start[0]).cwiseAbs().maxCoeff(),
                            (end[k] - end[0]).cwiseAbs().maxCoeff()});
       EXPECT_NEAR(bounds.extent[lane], extent, 1e-6 * extent);
+      if (m.vertexFace) {
+        EXPECT_EQ(bounds.startFeature[lane], float(kUnknownFeature));
+        EXPECT_EQ(bounds.endFeature[lane], float(kUnknownFeature));
+      } else {
+        checkFeature(bounds.startFeature[lane], start, tally, begin + lane);
+        checkFeature(bounds.endFeature[lane], end, tally, begin + lane);
+      }
       ++checked;
     }
   }
@@ -104,6 +140,7 @@ Vec3d randomIn(std::mt19937& rng, double half) {
 
 TEST(PairDistanceLanes, RandomClothSizedPairsFarFromTheOrigin) {
   std::mt19937 rng(7);
+  FeatureCounts features;
   for (const bool vertexFace : {true, false}) {
     for (const double offset : {0.0, 3.0, 150.0}) {
       std::vector<PairMotion> motions;
@@ -118,9 +155,14 @@ TEST(PairDistanceLanes, RandomClothSizedPairsFarFromTheOrigin) {
         }
         motions.push_back(m);
       }
-      EXPECT_EQ(checkLanes(motions), 2000);
+      EXPECT_EQ(checkLanes(motions, &features), 2000);
     }
   }
+  // Random edges a few centimetres apart: most are classified, both ways (2 × 3 × 2,000 edge
+  // pairs' start and end).
+  EXPECT_GT(features.counts[kEdgeInteriors], 500);
+  EXPECT_GT(features.counts[kEdgeEnds], 3000);
+  EXPECT_LT(features.counts[kUnknownFeature], 1200);
 }
 
 TEST(PairDistanceLanes, DegenerateShapesOfAPile) {
@@ -153,8 +195,12 @@ TEST(PairDistanceLanes, DegenerateShapesOfAPile) {
                    {o + Vec3d(0.25 * h, 0.25 * h, 0), o, o + Vec3d(h, 0, 0), o + Vec3d(0, h, 0)},
                    {o + Vec3d(2 * h, 2 * h, 0), o, o + Vec3d(h, 0, 0), o + Vec3d(0, h, 0)}});
   edges.push_back({false, {o, o, o + Vec3d(0, 0.004, 0), o + Vec3d(h, 0.004, 0)}, {o, o, o, o}});
+  FeatureCounts features;
   EXPECT_EQ(checkLanes(faces), 15);
-  EXPECT_EQ(checkLanes(edges), 27);
+  EXPECT_EQ(checkLanes(edges, &features), 27);
+  // Nearly parallel edges are left unclassified; the crossing ones at 1e-1 are not.
+  EXPECT_GT(features.counts[kUnknownFeature], 20);
+  EXPECT_GT(features.counts[kEdgeInteriors] + features.counts[kEdgeEnds], 0);
 }
 
 TEST(PairDistanceLanes, PublicCcdQueryConfigurations) {
@@ -169,8 +215,9 @@ TEST(PairDistanceLanes, PublicCcdQueryConfigurations) {
     for (int i = 0; i < 24; ++i) fields >> (i < 12 ? m.start[i / 3] : m.end[i / 3 - 4])[i % 3];
     (m.vertexFace ? faces : edges).push_back(m);
   }
+  FeatureCounts features;
   EXPECT_EQ(checkLanes(faces), 1353);
-  EXPECT_EQ(checkLanes(edges), 1508);
+  EXPECT_EQ(checkLanes(edges, &features), 1508);
 }
 
 }  // namespace

@@ -67,20 +67,33 @@ constexpr float kInsideSlack = 1e-5f;
   return std::min(edges, face);
 }
 
+// The conditioning and the margin of the closest-feature classification of two edges: the
+// lines' closest points are trusted where sin² of the edges' angle is above kClassifySineSquared
+// (their float error is then below 1e-4 of an edge for edges no farther apart than a few edge
+// lengths), and counted inside or outside an edge only kClassifyMargin clear of its ends.
+constexpr float kClassifySineSquared = 1e-4f;
+constexpr float kClassifyMargin = 1e-3f;
+
 // Squared distance between segments pq and rs: the least of the four ends' distances to the
-// other segment and, where the lines' closest points lie inside both, theirs.
-[[gnu::always_inline]] inline float segmentSegmentSquared(P3 p, P3 q, P3 r, P3 s) {
+// other segment and, where the lines' closest points lie inside both, theirs. `feature`: whether
+// the closest points are inside both edges (kEdgeInteriors), at an end of one (kEdgeEnds: the
+// lines' closest points lie outside one of them), or too near the border to tell (kUnknown).
+[[gnu::always_inline]] inline float segmentSegmentSquared(P3 p, P3 q, P3 r, P3 s, float& feature) {
   const float ends = std::min(std::min(pointSegmentSquared(p, r, s), pointSegmentSquared(q, r, s)),
                               std::min(pointSegmentSquared(r, p, q), pointSegmentSquared(s, p, q)));
   const P3 d1 = q - p, d2 = s - r, w = r - p;
   const P3 n = cross(d1, d2);
-  const float nn = dot(n, n);
+  const float nn = dot(n, n), aa = dot(d1, d1), ee = dot(d2, d2);
   // The lines' closest points p + u d1 and r + v d2: u = ((r − p) × d2) · n / |n|², v likewise.
   const float u = dot(cross(w, d2), n) / nn, v = dot(cross(w, d1), n) / nn;
-  const bool crossing =
-      nn > kSkippedSineSquared * dot(d1, d1) * dot(d2, d2) && u >= 0 && u <= 1 && v >= 0 && v <= 1;
+  const bool crossing = nn > kSkippedSineSquared * aa * ee && u >= 0 && u <= 1 && v >= 0 && v <= 1;
   const P3 gap = {w.x + v * d2.x - u * d1.x, w.y + v * d2.y - u * d1.y, w.z + v * d2.z - u * d1.z};
   const float inner = crossing ? dot(gap, gap) : ends;
+  const bool conditioned = nn > kClassifySineSquared * aa * ee;
+  const float lo = kClassifyMargin, hi = 1 - kClassifyMargin;
+  const bool interiors = conditioned && u >= lo && u <= hi && v >= lo && v <= hi;
+  const bool outside = conditioned && (u < -lo || u > 1 + lo || v < -lo || v > 1 + lo);
+  feature = interiors ? float(kEdgeInteriors) : outside ? float(kEdgeEnds) : float(kUnknownFeature);
   return std::min(ends, inner);
 }
 
@@ -119,6 +132,7 @@ NUCLEON_LANE_CLONES void vertexFaceLaneBounds(const PairLanes& in, PairLaneBound
     out.motion[lane] = std::sqrt(
         std::max(std::max(motionOf(in, 1, lane), motionOf(in, 2, lane)), motionOf(in, 3, lane)));
     out.extent[lane] = extentOf(in, lane);
+    out.startFeature[lane] = out.endFeature[lane] = float(kUnknownFeature);
   }
 }
 
@@ -126,10 +140,11 @@ NUCLEON_LANE_CLONES void edgeEdgeLaneBounds(const PairLanes& in, PairLaneBounds&
   const P3 o = {0, 0, 0};
 #pragma omp simd
   for (int lane = 0; lane < kPairLanes; ++lane) {
-    out.startDistance[lane] = std::sqrt(segmentSegmentSquared(
-        o, at(in.start, 1, lane), at(in.start, 2, lane), at(in.start, 3, lane)));
-    out.endDistance[lane] = std::sqrt(
-        segmentSegmentSquared(o, at(in.end, 1, lane), at(in.end, 2, lane), at(in.end, 3, lane)));
+    out.startDistance[lane] =
+        std::sqrt(segmentSegmentSquared(o, at(in.start, 1, lane), at(in.start, 2, lane),
+                                        at(in.start, 3, lane), out.startFeature[lane]));
+    out.endDistance[lane] = std::sqrt(segmentSegmentSquared(
+        o, at(in.end, 1, lane), at(in.end, 2, lane), at(in.end, 3, lane), out.endFeature[lane]));
     out.motion[lane] = std::sqrt(motionOf(in, 1, lane)) +
                        std::sqrt(std::max(motionOf(in, 2, lane), motionOf(in, 3, lane)));
     out.extent[lane] = extentOf(in, lane);

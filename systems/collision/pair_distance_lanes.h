@@ -40,6 +40,19 @@ struct PairLaneBounds {
   // side relative to particle 0, the two summed (as the narrow phase's motion bound).
   float motion[kPairLanes];
   float extent[kPairLanes];  // the scale of the errors above
+  // Edge–edge lanes only: where the closest points of the two edges lie at the start and at the
+  // end of the motion, a PairFeature (vertex–face lanes: kUnknownFeature). The classification is
+  // only made with a margin (a few thousandths of an edge) on the safe side of the border
+  // between the two, where the exact closest points of the edges (Ericson §5.1.9, clamped)
+  // agree with it.
+  float startFeature[kPairLanes];
+  float endFeature[kPairLanes];
+};
+
+enum PairFeature : int {
+  kUnknownFeature = 0,
+  kEdgeInteriors = 1,  // inside both edges: neither clamped to an end
+  kEdgeEnds = 2,       // at an end of one edge at least
 };
 
 void vertexFaceLaneBounds(const PairLanes& lanes, PairLaneBounds& out);

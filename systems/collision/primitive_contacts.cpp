@@ -322,14 +322,19 @@ bool makeContact(const PairView& v, const CollisionPrimitives& prims, const Part
 
 // The narrow phase's first filter over a block of up to kPairLanes consecutive candidates
 // (systems/collision/pair_distance_lanes.h): their vertex–face and edge–edge pairs are measured
-// in float lanes, and those whose bounds, less the lanes' error, keep them out of reach over the
-// motion get their start distance and lower bound from there, as makeContact would give them
-// (within that error, on the safe side); the rest go on to makeContact.
+// in float lanes. A pair whose bounds, less the lanes' error, keep it out of reach over the
+// motion, and an edge–edge pair whose contact would be another pair's (duplicateFeature: its
+// closest points at an end of an edge, which both sides' vertex–face pairs hold) where
+// makeContact would look, get their start distance and lower bound from the lanes, as
+// makeContact would give them (within that error, on the safe side), and no contact; the rest go
+// on to makeContact.
 struct LaneFilter {
   PairView view[kPairLanes];
   bool measured[kPairLanes] = {};  // the candidate needs nothing more
   int laneOf[kPairLanes] = {};     // its lane in the lanes of its kind; −1 if in none
-  PairLanes lanes[2] = {};         // vertex–face, edge–edge
+  // makeContact's scale of "touching" at the start and at the end: 1e-9 × max(1, |X[0]|).
+  double touchScale[2][kPairLanes] = {};
+  PairLanes lanes[2] = {};  // vertex–face, edge–edge
   PairLaneBounds bounds[2] = {};
   int used[2] = {0, 0};
 
@@ -355,6 +360,8 @@ struct LaneFilter {
     // A pair with a coordinate that is not finite is left to makeContact, which does not make
     // its contact.
     if (!finite) return;
+    touchScale[0][slot] = 1e-9 * std::max(1.0, double(x0.cwiseAbs().maxCoeff()));
+    touchScale[1][slot] = 1e-9 * std::max(1.0, double(p0.cwiseAbs().maxCoeff()));
     laneOf[slot] = lane;
     ++used[group];
   }
@@ -364,23 +371,50 @@ struct LaneFilter {
     if (used[1] > 0) edgeEdgeLaneBounds(lanes[1], bounds[1]);
   }
 
-  // Whether the lanes keep candidate `slot` out of reach: then `startDistance` and `lowerBound`
-  // are set as makeContact sets them for a pair it rules out.
-  bool outOfReach(std::size_t slot, const PairView& v, double& startDistance,
-                  double& lowerBound) const {
+  // Whether the lanes show that makeContact would make no contact for candidate `slot`: then
+  // `startDistance` and `lowerBound` are set as makeContact sets them for such a pair.
+  bool settle(std::size_t slot, const PairView& v, const CollisionPrimitives& prims,
+              double& startDistance, double& lowerBound) const {
     const int lane = laneOf[slot];
     if (lane < 0) return false;
     const PairLaneBounds& b = bounds[v.kind == PairKind::VertexFace ? 0 : 1];
     const double error = double(kPairLaneTolerance) * double(b.extent[lane]);
     const double start = double(b.startDistance[lane]) - error,
                  end = double(b.endDistance[lane]) - error, motion = double(b.motion[lane]) + error;
+    if (!(start > 0)) return false;
     const double bound = std::max(start - motion, (start + end - motion) / 2);
-    if (!(bound > double(v.radius) + double(kPrimitiveContactMargin) + kBoundTolerance &&
-          start > 0))
-      return false;
-    startDistance = start;
-    lowerBound = bound;
-    return true;
+    const auto settled = [&] {
+      startDistance = start;
+      lowerBound = bound;
+      return true;
+    };
+    if (bound > double(v.radius) + double(kPrimitiveContactMargin) + kBoundTolerance)
+      return settled();
+    if (v.kind != PairKind::EdgeEdge || !heldByFacesBothWays(v, prims)) return false;
+    // makeContact's two early duplicates: at the end where no impact is possible, at the
+    // start where the pair starts within its contact distance. The lanes' closest points are
+    // at an end of an edge there, and each side's vertices meet the other edge's triangles.
+    const double radius = double(v.radius);
+    if ((start + end - motion) / 2 > radius && end > touchScale[1][slot] &&
+        b.endFeature[lane] == float(kEdgeEnds))
+      return settled();
+    const double startAbove = double(b.startDistance[lane]) + error;
+    if (startAbove < radius && start > touchScale[0][slot] &&
+        b.startFeature[lane] == float(kEdgeEnds))
+      return settled();
+    return false;
+  }
+
+  // Whether an edge–edge pair's contact at an end of either edge is held by vertex–face pairs
+  // (duplicateFeature's condition for both ends).
+  static bool heldByFacesBothWays(const PairView& v, const CollisionPrimitives& prims) {
+    const auto held = [&](std::uint32_t object, Index edge) {
+      return object < prims.objectFlags.size() &&
+             (prims.objectFlags[object] & kCollideVertices) != 0 &&
+             edge < prims.edgeTriangle.size() &&
+             prims.edgeTriangle[edge] != CollisionPrimitives::kNoTriangle;
+    };
+    return held(v.objectA, v.second) && held(v.objectB, v.first);
   }
 };
 
@@ -886,7 +920,8 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
               const std::size_t slot = i - block;
               if (filter.measured[slot]) continue;
               const PairView& v = filter.view[slot];
-              if (filter.outOfReach(slot, v, contacts.startDistance[i], contacts.lowerBound[i]))
+              if (filter.settle(slot, v, primitives, contacts.startDistance[i],
+                                contacts.lowerBound[i]))
                 continue;
               if (makeContact(v, primitives, particles, surfaces, contacts.startDistance[i],
                               contacts.lowerBound[i], record))
