@@ -15,6 +15,7 @@
 
 #include "systems/collision/broad_phase.h"
 #include "systems/collision/ccd.h"
+#include "systems/collision/contact_step_lanes.h"
 #include "systems/collision/pair_distance_lanes.h"
 #include "systems/collision/particle_contacts.h"
 #include "systems/collision/primitive_distance.h"
@@ -968,10 +969,7 @@ void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& part
   }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPairGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t c = r.begin(); c != r.end(); ++c) {
-                        contacts.step[c] = contactStep(contacts, particles, c);
-                        contacts.lambda[c] += contacts.step[c] * contacts.inverseMass[c];
-                      }
+                      primitiveContactSteps(contacts, particles, r.begin(), r.end());
                     });
   // Most contacts are not pressed in a given round: their normal is not even loaded.
   gatherCorrections(contacts, particles, [&](Index c) -> Vec3 {
