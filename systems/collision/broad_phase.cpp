@@ -234,6 +234,28 @@ std::uint32_t objectOf(const CollisionPrimitives& prims, PairKind kind, bool fir
          !prims.excluded(objectOf(prims, kind, true, first), objectOf(prims, kind, false, second));
 }
 
+// admissible for a kind known when compiled: the same tests with the particle counts fixed, so
+// that the full search's callbacks compare and load without loops.
+template <PairKind kKind>
+[[gnu::always_inline]] inline bool admissibleOf(const CollisionPrimitives& prims, const Real* w,
+                                                Index first, Index second) {
+  if constexpr (kKind == PairKind::VertexFace) {
+    const Index i = prims.pointParticle[first];
+    const auto& t = prims.triangleParticles[second];
+    if (i == t[0] || i == t[1] || i == t[2]) return false;
+    if (w[i] == 0 && w[t[0]] == 0 && w[t[1]] == 0 && w[t[2]] == 0) return false;
+  } else if constexpr (kKind == PairKind::EdgeEdge) {
+    const auto& e = prims.edgeParticles[first];
+    const auto& f = prims.edgeParticles[second];
+    if (e[0] == f[0] || e[0] == f[1] || e[1] == f[0] || e[1] == f[1]) return false;
+    if (w[e[0]] == 0 && w[e[1]] == 0 && w[f[0]] == 0 && w[f[1]] == 0) return false;
+  } else {
+    return admissible(prims, w, kKind, first, second);
+  }
+  return prims.excludedPairs.empty() || !prims.excluded(objectOf(prims, kKind, true, first),
+                                                        objectOf(prims, kKind, false, second));
+}
+
 // The filters every pair of overlapping boxes goes through, in the order of their cost; a pair
 // kept is stored as first << 32 | second in the running thread's list.
 template <PairKind kKind>
@@ -254,7 +276,7 @@ void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
     if constexpr (kKind == PairKind::VertexVertex) second = f.isolatedPoints[second];
     // Neighbours that share a particle, a third of the overlaps on a cloth, always meet: the
     // cheaper test first.
-    if (!admissible(prims, f.w, kKind, first, second)) continue;
+    if (!admissibleOf<kKind>(prims, f.w, first, second)) continue;
     if (!meetInMotion(f.endsA[a[k]], f.endsB[b[k]])) continue;
     const std::uint64_t key = std::uint64_t{first} << 32 | second;
     if (staged) {
