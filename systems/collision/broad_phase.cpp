@@ -727,20 +727,36 @@ struct ExtensionQuery {
   bool lowerKeeps;
 };
 
+template <PairKind kKind>
 void keepExtension(void* raw, Index partner) {
   ExtensionQuery& q = *static_cast<ExtensionQuery*>(raw);
   const BoxEnds& partnerEnds = q.partners[partner];
   if (q.partnerIsolated) partner = q.isolatedPoints[partner];
   if (q.partnerChanged && q.partnerChanged[partner] && (!q.lowerKeeps || partner < q.self)) return;
   Index first = q.selfFirst ? q.self : partner, second = q.selfFirst ? partner : q.self;
-  if (q.kind == PairKind::EdgeEdge || q.kind == PairKind::VertexVertex) {
+  if constexpr (kKind == PairKind::EdgeEdge || kKind == PairKind::VertexVertex) {
     if (first == second) return;
     if (first > second) std::swap(first, second);
   }
-  if (!admissible(*q.primitives, q.w, q.kind, first, second)) return;
+  if (!admissibleOf<kKind>(*q.primitives, q.w, first, second)) return;
   if (!meetInMotion(q.selfEnds, partnerEnds, q.since)) return;
   q.kept[q.keptCount++] = std::uint64_t{first} << 32 | second;
   if (q.keptCount == q.kept.size()) q.found.append(q.kept.data(), q.keptCount), q.keptCount = 0;
+}
+
+// keepExtension for a search's kind.
+PrimitiveBvh::Visitor extensionVisitor(PairKind kind) {
+  switch (kind) {
+    case PairKind::VertexFace:
+      return &keepExtension<PairKind::VertexFace>;
+    case PairKind::EdgeEdge:
+      return &keepExtension<PairKind::EdgeEdge>;
+    case PairKind::VertexEdge:
+      return &keepExtension<PairKind::VertexEdge>;
+    case PairKind::VertexVertex:
+      break;
+  }
+  return &keepExtension<PairKind::VertexVertex>;
 }
 
 }  // namespace
@@ -887,6 +903,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
   std::mutex overflowLock;
   for (const Search& search : searches) {
     if (bvh.builtCount(search.tree) == 0) continue;
+    const PrimitiveBvh::Visitor visitor = extensionVisitor(search.kind);
     prepareThreadPairs(bvh.threadPairs);
     const std::vector<Index>& queries = *search.queries;
     // The partners' list: edges in the edge tree, points in the others.
@@ -924,7 +941,7 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                                                    self);
                           query.self = self;
                           query.selfEnds = {box.start, box.end};
-                          bvh.forEachOverlap(search.tree, box.swept, &keepExtension, &query);
+                          bvh.forEachOverlap(search.tree, box.swept, visitor, &query);
                         }
                         query.found.append(query.kept.data(), query.keptCount);
                       });
