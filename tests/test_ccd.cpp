@@ -13,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include "ccd_public_set.h"
 #include "engine/app/cli.h"
 #include "systems/collision/ccd.h"
 #include "systems/collision/primitive_distance.h"
@@ -20,26 +21,10 @@
 namespace nucleon {
 namespace {
 
-struct Query {
-  bool vertexFace = true;
-  std::array<Vec3d, 8> x;
-  int truth = 0;
-};
+using Query = test::CcdQuery;
 
 std::vector<Query> loadPublicSet() {
-  std::ifstream in(std::string(NUCLEON_TEST_DATA) + "/ccd_public.txt");
-  std::vector<Query> queries;
-  for (std::string line; std::getline(in, line);) {
-    std::istringstream fields(line);
-    std::string kind;
-    if (!(fields >> kind) || kind[0] == '#') continue;
-    Query q;
-    q.vertexFace = kind == "vf";
-    for (int i = 0; i < 24; ++i) fields >> q.x[i / 3][i % 3];
-    fields >> q.truth;
-    queries.push_back(q);
-  }
-  return queries;
+  return test::loadPublicCcdSet();
 }
 
 CcdResult solve(const Query& q, double distance) {

@@ -1,7 +1,8 @@
-// The contact steps in lanes (systems/collision/contact_step_lanes.h) give the scalar contact
-// step's bits: Δλ = −C / Σ w_k c_k² for C = n · Σ c_k p_k − distance < 0 (and below the
-// stickiness), 0 otherwise, and λ += Δλ Σ w_k c_k², on random contacts of every kind of the
-// narrow phase, pressed, separated, sticky and of zero inverse mass, over any sub-range.
+// The contact steps in lanes (systems/collision/contact_step_lanes.h) give the bits of the
+// scalar step Gauss–Seidel takes (primitiveContactStep: Δλ = −C / Σ w_k c_k² for
+// C = n · Σ c_k p_k − distance < 0, and below the stickiness, 0 otherwise), and λ += Δλ Σ w_k c_k²,
+// on random contacts of every kind of the narrow phase, pressed, separated, sticky and of zero
+// inverse mass, over any sub-range. The step itself is checked against its analytic value too.
 #include <cmath>
 #include <random>
 #include <vector>
@@ -12,16 +13,6 @@
 
 namespace nucleon {
 namespace {
-
-// The contact step as the scalar Gauss–Seidel path writes it (Eigen's sum and dot).
-Real referenceStep(const PrimitiveContactPool& pool, const ParticlePool& particles, std::size_t c) {
-  Vec3 sum = Vec3::Zero();
-  for (int k = 0; k < 4; ++k) sum += pool.coefficient[c][k] * particles.p[pool.particles[c][k]];
-  const Real C = pool.normal[c].dot(sum) - pool.distance[c];
-  if (C >= pool.stickiness[c] || (C >= 0 && pool.stickiness[c] == 0)) return 0;
-  const Real m = pool.inverseMass[c];
-  return m > 0 ? -C / m : Real(0);
-}
 
 TEST(ContactStepLanes, SameBitsAsTheScalarStep) {
   std::mt19937 rng(11);
@@ -54,10 +45,23 @@ TEST(ContactStepLanes, SameBitsAsTheScalarStep) {
   primitiveContactSteps(pool, particles, 0, 517);
   primitiveContactSteps(pool, particles, 517, contacts);
   for (std::size_t c = 0; c < contacts; ++c) {
-    const Real expected = referenceStep(pool, particles, c);
+    const Real expected = primitiveContactStep(pool, particles, c);
     EXPECT_EQ(pool.step[c], expected) << "contact " << c;
     EXPECT_EQ(pool.lambda[c], lambdaBefore[c] + expected * pool.inverseMass[c]) << "contact " << c;
     pressed += expected != 0;
+    // The analytic step, in double: a pressed contact's step restores C = 0 through its
+    // generalised inverse mass (float rounding of C, with |p| ≤ 0.09 m, is below 1e-7 m); an
+    // unpressed one holds, is within its stickiness, or cannot move.
+    Vec3d sum = Vec3d::Zero();
+    for (int k = 0; k < 4; ++k)
+      sum += double(pool.coefficient[c][k]) * particles.p[pool.particles[c][k]].cast<double>();
+    const double C = pool.normal[c].cast<double>().dot(sum) - double(pool.distance[c]);
+    const double m = double(pool.inverseMass[c]), s = double(pool.stickiness[c]);
+    if (expected != 0) {
+      EXPECT_NEAR(double(expected) * m, -C, 1e-6) << "contact " << c;
+    } else {
+      EXPECT_TRUE(!(m > 0) || C >= s - 1e-6 || (s == 0 && C >= -1e-6)) << "contact " << c;
+    }
   }
   // Both outcomes are exercised: about half of random contacts press.
   EXPECT_GT(pressed, 200);

@@ -187,10 +187,11 @@ TEST(Multigrid, RejectsANegativeSweepCount) {
 // contacts moves nothing (bit for bit), and so does one with every particle on a plane, which
 // bends nothing, or against a mesh collider's vertex that moves. With every particle in contact
 // with a curved collider (a sphere, a mesh at rest) the limit becomes the chord
-// the patch would have at rest length, 2 d cos 20°, and 32 sweeps of level 1 bring the fine
-// edges along x back near rest: measured 0.23% mean stretch from 5%, asserted below 1% (a fifth
-// of the stretch before); the edges across (along z, unstretched before) measured −0.58%, also
-// asserted within 1%.
+// the patch would have at rest length, 2 d cos 20°. Against the sphere, 32 sweeps of level 1
+// bring the fine edges along x back near rest: measured 0.23% mean stretch from 5%, asserted
+// below 1% (a fifth of the stretch before); the edges across (along z, unstretched before)
+// measured −0.58%, also asserted within 1%. Against the mesh at rest the particles' primitive
+// contacts keep the fine-only particles in place (as in the solve): 3.2%, asserted below 4%.
 TEST(Multigrid, ContactLimitsGripACurvedPatchThatStretches) {
   constexpr int kSide = 9;
   GridSpec spec;
@@ -245,8 +246,8 @@ TEST(Multigrid, ContactLimitsGripACurvedPatchThatStretches) {
     contacts.runStart.resize(wrapped.size() + 1);
     std::iota(contacts.runStart.begin(), contacts.runStart.end(), Index(0));
     ParticlePool out = wrapped;
-    runMultigridCascade(hierarchies, state.objects, out, scratch, sweeps, nullptr, nullptr, {},
-                        &contacts, &colliders);
+    runMultigridCascade(hierarchies, state.objects, out, scratch, sweeps, nullptr, nullptr,
+                        {&contacts, &colliders});
     return out;
   };
   // Every particle in a primitive contact with one particle of inverse mass 0 (a mesh
@@ -274,14 +275,19 @@ TEST(Multigrid, ContactLimitsGripACurvedPatchThatStretches) {
         static_cast<Index>(wrapped.size());
     ColliderPool noColliders;
     ContactPool noContacts;
-    runMultigridCascade(hierarchies, state.objects, pool, scratch, sweeps, nullptr, nullptr, {},
-                        &noContacts, &noColliders, &primitive);
+    runMultigridCascade(hierarchies, state.objects, pool, scratch, sweeps, nullptr, nullptr,
+                        {&noContacts, &noColliders, &primitive});
     return pool;
   };
   const ParticlePool meshMoving = heldByMesh(Vec3(0, 0, Real(0.01)));
   for (std::size_t k = 0; k < wrapped.size(); ++k) EXPECT_EQ(meshMoving.p[k], wrapped.p[k]) << k;
+  // At rest the coarse level's edges are limited, but as in the solve every particle with a
+  // primitive contact keeps its place when the level is prolonged: only the coarse level's own
+  // particles move, and the fine edges' mean stretch falls from 5% to 3.2%, not to the sphere's
+  // 0.2% below (where prolongation moves the rest too). Asserted: at least a fifth of it gone.
   const ParticlePool meshAtRest = heldByMesh(Vec3::Zero());
-  EXPECT_LT(std::abs(meanStretch(meshAtRest, 1, 0)), 0.01);
+  EXPECT_LT(meanStretch(meshAtRest, 1, 0), 0.04);
+  EXPECT_GT(meanStretch(meshAtRest, 1, 0), 0.0);
 
   const ParticlePool onPlane = touchingEvery(ColliderShape::Plane);
   for (std::size_t k = 0; k < onPlane.size(); ++k) EXPECT_EQ(onPlane.p[k], wrapped.p[k]) << k;

@@ -6,14 +6,12 @@
 // edges, coincident and collapsed primitives) and on the public CCD query set's configurations.
 #include <array>
 #include <cmath>
-#include <fstream>
 #include <random>
-#include <sstream>
-#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "ccd_public_set.h"
 #include "systems/collision/pair_distance_lanes.h"
 #include "systems/collision/primitive_distance.h"
 
@@ -204,15 +202,11 @@ TEST(PairDistanceLanes, DegenerateShapesOfAPile) {
 }
 
 TEST(PairDistanceLanes, PublicCcdQueryConfigurations) {
-  std::ifstream in(std::string(NUCLEON_TEST_DATA) + "/ccd_public.txt");
   std::vector<PairMotion> faces, edges;
-  for (std::string line; std::getline(in, line);) {
-    std::istringstream fields(line);
-    std::string kind;
-    if (!(fields >> kind) || kind[0] == '#') continue;
+  for (const test::CcdQuery& q : test::loadPublicCcdSet()) {
     PairMotion m;
-    m.vertexFace = kind == "vf";
-    for (int i = 0; i < 24; ++i) fields >> (i < 12 ? m.start[i / 3] : m.end[i / 3 - 4])[i % 3];
+    m.vertexFace = q.vertexFace;
+    for (int k = 0; k < 4; ++k) m.start[k] = q.x[k], m.end[k] = q.x[k + 4];
     (m.vertexFace ? faces : edges).push_back(m);
   }
   FeatureCounts features;

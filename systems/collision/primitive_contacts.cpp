@@ -419,17 +419,6 @@ struct LaneFilter {
   }
 };
 
-// The step Δλ of contact c at the current positions: C = n · Σ c_k p_k − distance must not be
-// negative, and with stickiness s a separation C < s is pulled back to 0 as well.
-Real contactStep(const PrimitiveContactPool& pool, const ParticlePool& particles, std::size_t c) {
-  Vec3 sum = Vec3::Zero();
-  for (int k = 0; k < 4; ++k) sum += pool.coefficient[c][k] * particles.p[pool.particles[c][k]];
-  const Real C = pool.normal[c].dot(sum) - pool.distance[c];
-  if (C >= pool.stickiness[c] || (C >= 0 && pool.stickiness[c] == 0)) return 0;
-  const Real m = pool.inverseMass[c];
-  return m > 0 ? -C / m : Real(0);
-}
-
 // The tangential correction of contact c over the substep (Coulomb, position level): the relative
 // tangential motion d_t of the contact points is removed entirely if |d_t| ≤ μ_s λ_n and by
 // μ_k λ_n otherwise.
@@ -956,7 +945,7 @@ void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& part
   if (n == 0) return;
   if (kind == SolverKind::GaussSeidel) {
     for (std::size_t c = 0; c < n; ++c) {
-      const Real step = contactStep(contacts, particles, c);
+      const Real step = primitiveContactStep(contacts, particles, c);
       if (step == 0) continue;
       contacts.lambda[c] += step * contacts.inverseMass[c];
       const Vec3 push = step * contacts.normal[c];

@@ -162,19 +162,18 @@ void prolong(const HierarchyLevel& level, ParticlePool& particles, const std::ve
 // measured at the prediction, got chords no motion could give it (an edge at 3.6 times its rest
 // length: bench/results/2core-AMD-EPYC/solver_speed.md §11). Measured once per cascade, from the
 // positions it starts from.
+// `contacts` and `primitive` are the substep's collider and primitive contacts, null for none.
 void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& particles,
-                      const ContactPool& contacts, const ColliderPool& colliders,
+                      const ContactPool* contacts, const ColliderPool* colliders,
                       const PrimitiveContactPool* primitive, CascadeScratch& scratch) {
-  const bool withPrimitive = primitive != nullptr && primitive->size() > 0 &&
-                             primitive->incidenceOffset.size() == particles.size() + 1;
   // Each of the object's particles held bent or not, once: by a sphere collider (a plane bends
   // nothing), or by a primitive contact with a particle of inverse mass 0 that does not move this
   // substep.
   const auto heldBent = [&](Index i) {
-    if (contacts.size() > 0)
-      for (Index c = contacts.runStart[i]; c != contacts.runStart[i + 1]; ++c)
-        if (colliders.shape[contacts.collider[c]] != ColliderShape::Plane) return true;
-    if (withPrimitive)
+    if (contacts)
+      for (Index c = contacts->runStart[i]; c != contacts->runStart[i + 1]; ++c)
+        if (colliders->shape[contacts->collider[c]] != ColliderShape::Plane) return true;
+    if (primitive)
       for (Index k = primitive->incidenceOffset[i]; k != primitive->incidenceOffset[i + 1]; ++k) {
         const Index c = primitive->incidence[k] >> 2;
         for (int s = 0; s < 4; ++s) {
@@ -216,18 +215,28 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
                                 std::span<const ObjectRecord> objects, ParticlePool& particles,
                                 CascadeScratch& scratch, std::span<const int> sweepsPerLevel,
                                 CascadeHook afterLevel, void* context,
-                                std::span<const Index> contactOffsets,
-                                const ContactPool* colliderContacts, const ColliderPool* colliders,
-                                const PrimitiveContactPool* primitiveContacts) {
+                                const CascadeContacts& contacts) {
   if (sweepsOfLevel(sweepsPerLevel, 1) <= 0) return 0;
   std::vector<Vec3>& start = scratch.start;
   start.resize(particles.size());
   scratch.limit.resize(hierarchies.coarseEdges);
   scratch.held.resize(particles.size());
-  const bool contacts = colliderContacts != nullptr && colliders != nullptr &&
-                        ((colliderContacts->size() > 0 &&
-                          colliderContacts->runStart.size() == particles.size() + 1) ||
-                         (primitiveContacts != nullptr && primitiveContacts->size() > 0));
+  const std::size_t n = particles.size();
+  const ContactPool* colliderContacts = contacts.colliderContacts && contacts.colliders &&
+                                                contacts.colliderContacts->size() > 0 &&
+                                                contacts.colliderContacts->runStart.size() == n + 1
+                                            ? contacts.colliderContacts
+                                            : nullptr;
+  const PrimitiveContactPool* primitiveContacts =
+      contacts.primitiveContacts && contacts.primitiveContacts->size() > 0 &&
+              contacts.primitiveContacts->incidenceOffset.size() == n + 1
+          ? contacts.primitiveContacts
+          : nullptr;
+  // The CSR offsets of the particles' primitive contacts (empty for none).
+  const std::span<const Index> contactOffsets =
+      primitiveContacts ? std::span<const Index>(primitiveContacts->incidenceOffset)
+                        : std::span<const Index>();
+  const bool limits = colliderContacts || primitiveContacts;
   std::size_t projections = 0;
   for (const ObjectHierarchy& hierarchy : hierarchies.objects) {
     if (!cascades(hierarchy, objects)) continue;
@@ -238,13 +247,13 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
           for (Index i = r.begin(); i != r.end(); ++i) start[i] = particles.p[i];
         },
         tbb::static_partitioner());
-    if (contacts)
-      setContactLimits(hierarchy, particles, *colliderContacts, *colliders, primitiveContacts,
-                       scratch);
+    if (limits)
+      setContactLimits(hierarchy, particles, colliderContacts, contacts.colliders,
+                       primitiveContacts, scratch);
     for (std::size_t l = hierarchy.levels.size() - 1; l >= 1; --l) {
       const HierarchyLevel& level = hierarchy.levels[l];
       const Real* limit =
-          contacts ? scratch.limit.data() + level.scratchBase : level.restLength.data();
+          limits ? scratch.limit.data() + level.scratchBase : level.restLength.data();
       const int sweeps = sweepsOfLevel(sweepsPerLevel, l);
       for (int k = 0; k < sweeps; ++k) sweepLevel(level, limit, particles);
       if (sweeps > 0) sweepLevelTethers(level, particles);

@@ -31,17 +31,22 @@ namespace nucleon {
 // its contact instead of being carried into it. A level's sweeps move only its own particles, and
 // prolongation then overwrites every other particle that moves, so the hook needs to settle only
 // the level's particles (the solve settles all of them while there are primitive contacts,
-// whose projection moves particles of any level). `contactOffsets` is the CSR offset table
-// of the particles' primitive contacts this substep (PrimitiveContactPool::incidenceOffset; empty
-// for none): prolongation leaves a particle with contacts where its contacts put it.
-// `colliderContacts` and `colliders` are the substep's collider contacts, `primitiveContacts` its
-// primitive contacts (null for none): a coarse edge whose two particles are held bent, by a
-// sphere collider or by a primitive contact with a particle of inverse mass 0 at rest (a static
-// mesh collider), is swept with a limit that sees the stretch of a curved patch (the chord its
-// path would have at rest length, when that is shorter than the rest distance), the others with
-// their rest distance; `scratch` holds those limits and the cascade's start positions. Returns the
-// coarse-edge projections and tether projections performed.
+// whose projection moves particles of any level). `contacts` are the substep's contacts (none
+// by default). Prolongation leaves a particle with primitive contacts where its contacts put it.
+// A coarse edge whose two particles are held bent, by a sphere collider or by a primitive
+// contact with a particle of inverse mass 0 at rest (a static mesh collider), is swept with a
+// limit that sees the stretch of a curved patch (the chord its path would have at rest length,
+// when that is shorter than the rest distance), the others with their rest distance; `scratch`
+// holds those limits and the cascade's start positions. Returns the coarse-edge projections and
+// tether projections performed.
 using CascadeHook = void (*)(void* context, std::span<const Index> moved);
+
+// The substep's contacts as the cascade reads them; a null or empty pool is none.
+struct CascadeContacts {
+  const ContactPool* colliderContacts = nullptr;  // with `colliders`, which they index
+  const ColliderPool* colliders = nullptr;
+  const PrimitiveContactPool* primitiveContacts = nullptr;
+};
 
 // The sweeps of coarse level l ≥ 1: sweepsPerLevel[l − 1], or its last value beyond the list; 0
 // for an empty list. A 0 for level 1 turns the cascade off.
@@ -50,10 +55,7 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
                                 std::span<const ObjectRecord> objects, ParticlePool& particles,
                                 CascadeScratch& scratch, std::span<const int> sweepsPerLevel,
                                 CascadeHook afterLevel = nullptr, void* context = nullptr,
-                                std::span<const Index> contactOffsets = {},
-                                const ContactPool* colliderContacts = nullptr,
-                                const ColliderPool* colliders = nullptr,
-                                const PrimitiveContactPool* primitiveContacts = nullptr);
+                                const CascadeContacts& contacts = {});
 
 // The coarse-edge projections one cascade performs (for throughput and work figures).
 std::size_t cascadeProjections(const LevelHierarchies& hierarchies,

@@ -56,10 +56,6 @@ void projectAllContacts(SolvePools& pools, SolverKind kind) {
 // new pool starts its multipliers at zero, so friction forgets the cascade's normal pushes.
 void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepContext& context,
                 SolveReport& report) {
-  const std::span<const Index> contactOffsets =
-      pools.primitiveContacts.size() > 0
-          ? std::span<const Index>(pools.primitiveContacts.incidenceOffset)
-          : std::span<const Index>();
   report.cascadeProjections += runMultigridCascade(
       pools.hierarchies, pools.objects, pools.particles, pools.cascade, settings.sweepsPerLevel,
       [](void* p, std::span<const Index> moved) {
@@ -72,7 +68,7 @@ void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepC
         }
         projectContactsOf(solvePools.contacts, solvePools.colliders, solvePools.particles, moved);
       },
-      &pools, contactOffsets, &pools.contacts, &pools.colliders, &pools.primitiveContacts);
+      &pools, {&pools.contacts, &pools.colliders, &pools.primitiveContacts});
   if (pools.colliders.size() > 0 &&
       contactsMissing(pools.contacts, pools.colliders, pools.particles)) {
     detectContacts(pools.contacts, pools.colliders, pools.particles, context.h, pools.particles.p);
