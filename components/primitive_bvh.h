@@ -171,13 +171,17 @@ class PrimitiveBvh {
   std::vector<std::uint8_t> grownParticle;
   std::array<std::vector<Index>, 3> changedPrimitives;
   std::array<std::vector<std::uint64_t>, 4> newPairs;
-  std::vector<std::uint8_t> stalePair;  // per pair of the set: its boxes came apart
   // Per primitive (points, edges, triangles): whether it has a grown particle.
   std::array<std::vector<std::uint8_t>, 3> changedPrimitive;
-  // Per chunk of the old pairs: its first new pair in the merge, and how many pairs the merge
-  // keeps before it.
-  std::vector<std::size_t> chunkNewPairs;
-  std::vector<std::size_t> keptBefore;
+  // The new pairs' sort by first index: per kind, the counts and places, and the sorted copy.
+  std::array<std::vector<Index>, 4> newPairOffset;
+  std::array<std::vector<std::uint64_t>, 4> newPairScratch;
+  // The merge's chunks: a run of one kind's old pairs, the new pairs of that kind that go among
+  // them, and how many pairs the merge keeps (then: how many it keeps before the chunk).
+  struct MergeChunk {
+    std::size_t kind, oldBegin, oldEnd, newBegin, newEnd, kept;
+  };
+  std::vector<MergeChunk> mergeChunks;
   std::vector<PairKind> mergedKind;
   std::vector<Index> mergedFirst;
   std::vector<Index> mergedSecond;

@@ -396,6 +396,29 @@ void matchFormerPairs(CandidatePairs& pairs) {
                     });
 }
 
+// Sorts pair keys first << 32 | second (first below `firsts`) and drops repeats: a counting sort
+// on the first index, then each first index's few partners sorted in place. Linear in the keys
+// and the first indices; `offset` and `scratch` keep their capacity between calls.
+void sortUniqueByFirst(std::vector<std::uint64_t>& keys, std::size_t firsts,
+                       std::vector<Index>& offset, std::vector<std::uint64_t>& scratch) {
+  if (keys.size() < 2) return;
+  offset.assign(firsts + 1, 0);
+  for (const std::uint64_t key : keys) ++offset[(key >> 32) + 1];
+  for (std::size_t f = 0; f < firsts; ++f) offset[f + 1] += offset[f];
+  scratch.resize(keys.size());
+  for (const std::uint64_t key : keys) scratch[offset[key >> 32]++] = key;
+  // offset[f] is now where first index f's run ends.
+  std::size_t out = 0, begin = 0;
+  for (std::size_t f = 0; f < firsts; ++f) {
+    const std::size_t end = offset[f];
+    if (end - begin > 1) std::sort(scratch.begin() + begin, scratch.begin() + end);
+    for (std::size_t k = begin; k < end; ++k)
+      if (out == 0 || scratch[k] != keys[out - 1]) keys[out++] = scratch[k];
+    begin = end;
+  }
+  keys.resize(out);
+}
+
 }  // namespace
 
 PrimitiveBox sweptBox(std::span<const Index> particles, std::span<const Vec3> x,
@@ -782,14 +805,20 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     if (bvh.boxEnds[tree].size() != bvh.boxes[tree].size()) return false;
 
   std::vector<std::uint8_t>& grown = bvh.grownParticle;
-  grown.assign(n, 0);
-  std::size_t outside = 0;
+  grown.resize(n);
   // Outside at the end of the motion or at its start (a step that starts from the last step's
   // pairs: the substeps after it start where the last one ended, inside).
-  for (std::size_t i = 0; i < n; ++i)
-    if (outsideBounds(pairs, position[i], offsets.position, offsets.positionAt, i) ||
-        outsideBounds(pairs, start[i], offsets.start, offsets.startAt, i))
-      grown[i] = 1, ++outside;
+  const std::size_t outside = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, kBoxGrain), std::size_t{0},
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t count) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          grown[i] = outsideBounds(pairs, position[i], offsets.position, offsets.positionAt, i) ||
+                     outsideBounds(pairs, start[i], offsets.start, offsets.startAt, i);
+          count += grown[i];
+        }
+        return count;
+      },
+      std::plus<>());
   if (outside == 0) return true;
   if (outside * kExtendShare > n) return false;
   pairs.pathsHeld = false;
@@ -827,38 +856,59 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     bvh.boxes[tree][i] = box.swept;
     bvh.boxEnds[tree][i] = {box.start, box.end};
   };
+  // Listed in ascending order by one pass each, then their boxes in parallel.
   for (std::size_t i = 0; i < points; ++i)
     if (grown[primitives.pointParticle[i]]) {
       changedPoints.push_back(static_cast<Index>(i));
       bvh.changedPrimitive[0][i] = 1;
-      const MovingBox box = ahead(movingBoxOf(pointParticles(primitives, i), pathStart, pathEnd,
-                                              pathReach, primitives.pointRadius[i] + margin / 2));
-      if (triangles > 0) store(kPointTree, i, box);
-      if (primitives.pointIsolated[i]) {
-        const auto k = std::lower_bound(bvh.isolatedPoints.begin(), bvh.isolatedPoints.end(),
-                                        static_cast<Index>(i)) -
-                       bvh.isolatedPoints.begin();
-        store(kIsolatedTree, static_cast<std::size_t>(k), box);
-      }
     }
   for (std::size_t e = 0; e < edges; ++e) {
     const auto& ends = primitives.edgeParticles[e];
     if (!grown[ends[0]] && !grown[ends[1]]) continue;
     changedEdges.push_back(static_cast<Index>(e));
     bvh.changedPrimitive[1][e] = 1;
-    store(kEdgeTree, e,
-          ahead(movingBoxOf(edgeParticles(primitives, e), pathStart, pathEnd, pathReach,
-                            primitives.edgeRadius[e] + margin / 2)));
   }
   for (std::size_t t = 0; t < triangles; ++t) {
     const auto& corners = primitives.triangleParticles[t];
     if (!grown[corners[0]] && !grown[corners[1]] && !grown[corners[2]]) continue;
     changedTriangles.push_back(static_cast<Index>(t));
     bvh.changedPrimitive[2][t] = 1;
-    store(kTriangleTree, t,
-          ahead(movingBoxOf(triangleParticles(primitives, t), pathStart, pathEnd, pathReach,
-                            primitives.triangleRadius[t] + margin / 2)));
   }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, changedPoints.size(), 256),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t k = r.begin(); k != r.end(); ++k) {
+                        const Index i = changedPoints[k];
+                        const MovingBox box =
+                            ahead(movingBoxOf(pointParticles(primitives, i), pathStart, pathEnd,
+                                              pathReach, primitives.pointRadius[i] + margin / 2));
+                        if (triangles > 0) store(kPointTree, i, box);
+                        if (primitives.pointIsolated[i]) {
+                          const auto slot = std::lower_bound(bvh.isolatedPoints.begin(),
+                                                             bvh.isolatedPoints.end(), i) -
+                                            bvh.isolatedPoints.begin();
+                          store(kIsolatedTree, static_cast<std::size_t>(slot), box);
+                        }
+                      }
+                    });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, changedEdges.size(), 256),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t k = r.begin(); k != r.end(); ++k) {
+                        const Index e = changedEdges[k];
+                        store(kEdgeTree, e,
+                              ahead(movingBoxOf(edgeParticles(primitives, e), pathStart, pathEnd,
+                                                pathReach, primitives.edgeRadius[e] + margin / 2)));
+                      }
+                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, changedTriangles.size(), 256),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k) {
+          const Index t = changedTriangles[k];
+          store(kTriangleTree, t,
+                ahead(movingBoxOf(triangleParticles(primitives, t), pathStart, pathEnd, pathReach,
+                                  primitives.triangleRadius[t] + margin / 2)));
+        }
+      });
   bvh.commit();
 
   // A primitive's moving box by list (0 points, 1 edges, 2 triangles): stored with its tree, or
@@ -949,95 +999,106 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
     for (const std::vector<std::uint64_t>& found : bvh.threadPairs)
       kindPairs.insert(kindPairs.end(), found.begin(), found.end());
   }
-  for (auto& list : bvh.newPairs) {
-    // Integer keys: one sorted order, whatever the threads found them in.
-    tbb::parallel_sort(list.begin(), list.end());
-    list.erase(std::unique(list.begin(), list.end()), list.end());
-  }
-
-  // Merged in (kind, first, second) order; a pair already in the set is kept once, and a pair of
-  // a changed primitive whose boxes no longer overlap is dropped, so that the set stays the one a
-  // full broad phase over these boxes would give.
-  const std::size_t old = pairs.size();
-  bvh.stalePair.resize(old);
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, old, kPairGrain),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          const PairKind kind = pairs.kind[i];
-          const Index a = pairs.first[i], b = pairs.second[i];
-          const bool changed = bvh.changedPrimitive[primitiveListOf(kind, true)][a] != 0 ||
-                               bvh.changedPrimitive[primitiveListOf(kind, false)][b] != 0;
-          if (!changed) {
-            bvh.stalePair[i] = 0;
-            continue;
-          }
-          const MovingBox boxA = movingBoxOfPrimitive(primitiveListOf(kind, true), a),
-                          boxB = movingBoxOfPrimitive(primitiveListOf(kind, false), b);
-          bvh.stalePair[i] = !meetInMotion(boxA.start, boxA.end, boxB.start, boxB.end, since);
-        }
-      });
-  // Both lists ascend in (kind, first, second), so they merge in one pass: each chunk of the old
-  // pairs takes the new pairs from its first old pair's key up to the next chunk's (one bisection
-  // per chunk, not per new pair), counts what it keeps, and then writes its old pairs and new
-  // ones in order at its place. A new pair equal to an old one is that pair (kept once, with its
-  // former index); the old ones are unique, and so are the new ones.
-  const auto keyOf = [&](std::size_t i) {
-    return std::tuple(pairs.kind[i], pairs.first[i], pairs.second[i]);
-  };
-  std::array<std::size_t, 5> kindStart{};  // where each kind's new pairs start in the one list
-  for (std::size_t kind = 0; kind < 4; ++kind)
-    kindStart[kind + 1] = kindStart[kind] + bvh.newPairs[kind].size();
-  const std::size_t found = kindStart[4];
-  const auto newPair = [&](std::size_t k) {
-    std::size_t kind = 0;
-    while (k >= kindStart[kind + 1]) ++kind;
-    const std::uint64_t key = bvh.newPairs[kind][k - kindStart[kind]];
-    return std::tuple(static_cast<PairKind>(kind), static_cast<Index>(key >> 32),
-                      static_cast<Index>(key & 0xffffffffu));
-  };
-  const std::size_t chunks = old / kPairGrain + 1;
-  std::vector<std::size_t>& newFrom = bvh.chunkNewPairs;  // per chunk: its first new pair
-  newFrom.resize(chunks + 1);
-  newFrom[0] = 0, newFrom[chunks] = found;
-  tbb::parallel_for(std::size_t{1}, chunks, [&](std::size_t chunk) {
-    const std::size_t begin = chunk * kPairGrain;
-    newFrom[chunk] = begin < old ? firstNotBelow(newPair, 0, found, keyOf(begin)) : found;
+  const std::array<std::size_t, 4> firstsOf = {points, edges, points, points};
+  tbb::parallel_for(std::size_t{0}, std::size_t{4}, [&](std::size_t kind) {
+    sortUniqueByFirst(bvh.newPairs[kind], firstsOf[kind], bvh.newPairOffset[kind],
+                      bvh.newPairScratch[kind]);
   });
-  // Visits chunk's merged pairs in order: emit(old index or kNewPair, kind, first, second).
-  const auto mergeChunk = [&](std::size_t chunk, auto&& emit) {
-    std::size_t i = chunk * kPairGrain, k = newFrom[chunk];
-    const std::size_t end = std::min(old, (chunk + 1) * kPairGrain), newEnd = newFrom[chunk + 1];
-    while (i < end || k < newEnd) {
-      if (k < newEnd) {
-        const auto key = newPair(k);
-        if (i == end || key < keyOf(i)) {
-          emit(CandidatePairs::kNewPair, std::get<0>(key), std::get<1>(key), std::get<2>(key));
+
+  // Merged in (kind, first, second) order, so that the set stays the one a full broad phase over
+  // these boxes would give: a pair already in the set is kept once, and an old pair of a changed
+  // primitive is kept only if the queries found it again. They find every pair of a changed
+  // primitive whose moving boxes meet (the tree boxes they search hold the moving boxes, and
+  // keepExtension makes the same test), so one they did not find has come apart.
+  // Kind by kind, both lists ascend in (first, second), one 64-bit key first << 32 | second, so
+  // they merge in one pass: each chunk of a kind's old pairs takes that kind's new pairs from its
+  // first old pair's key up to the next chunk's (one bisection per chunk, not per new pair),
+  // counts what it keeps, and then writes its old pairs and new ones in order at its place. A new
+  // pair equal to an old one is that pair (kept once, with its former index); the old ones are
+  // unique, and so are the new ones. A kind with new pairs and no old ones is one chunk.
+  using MergeChunk = PrimitiveBvh::MergeChunk;
+  std::vector<MergeChunk>& chunks = bvh.mergeChunks;
+  chunks.clear();
+  for (std::size_t kind = 0, begin = 0; kind < 4; ++kind) {
+    const std::size_t end = static_cast<std::size_t>(
+        std::partition_point(pairs.kind.begin() + static_cast<std::ptrdiff_t>(begin),
+                             pairs.kind.end(),
+                             [&](PairKind k) { return static_cast<std::size_t>(k) <= kind; }) -
+        pairs.kind.begin());
+    if (begin == end) {
+      if (!bvh.newPairs[kind].empty()) chunks.push_back({kind, begin, end, 0, 0, 0});
+    } else {
+      for (std::size_t from = begin; from < end; from += kPairGrain)
+        chunks.push_back({kind, from, std::min(end, from + kPairGrain), 0, 0, 0});
+    }
+    begin = end;
+  }
+  const auto keyOf = [&](std::size_t i) {
+    return std::uint64_t{pairs.first[i]} << 32 | pairs.second[i];
+  };
+  tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t c) {
+    MergeChunk& chunk = chunks[c];
+    const std::vector<std::uint64_t>& found = bvh.newPairs[chunk.kind];
+    const bool firstOfKind = c == 0 || chunks[c - 1].kind != chunk.kind;
+    const bool lastOfKind = c + 1 == chunks.size() || chunks[c + 1].kind != chunk.kind;
+    chunk.newBegin = firstOfKind
+                         ? 0
+                         : static_cast<std::size_t>(
+                               std::lower_bound(found.begin(), found.end(), keyOf(chunk.oldBegin)) -
+                               found.begin());
+    chunk.newEnd = lastOfKind
+                       ? found.size()
+                       : static_cast<std::size_t>(
+                             std::lower_bound(found.begin(), found.end(), keyOf(chunk.oldEnd)) -
+                             found.begin());
+  });
+  // Visits a chunk's merged pairs in order: emit(old index or kNewPair, key).
+  const auto mergeChunk = [&](const MergeChunk& chunk, auto&& emit) {
+    const std::vector<std::uint64_t>& found = bvh.newPairs[chunk.kind];
+    const auto kind = static_cast<PairKind>(chunk.kind);
+    const std::uint8_t* changedFirst = bvh.changedPrimitive[primitiveListOf(kind, true)].data();
+    const std::uint8_t* changedSecond = bvh.changedPrimitive[primitiveListOf(kind, false)].data();
+    std::size_t i = chunk.oldBegin, k = chunk.newBegin;
+    while (i < chunk.oldEnd || k < chunk.newEnd) {
+      if (k < chunk.newEnd) {
+        const std::uint64_t key = found[k];
+        if (i == chunk.oldEnd || key < keyOf(i)) {
+          emit(CandidatePairs::kNewPair, key);
           ++k;
           continue;
         }
-        if (key == keyOf(i)) ++k;
+        if (key == keyOf(i)) {  // found again
+          emit(static_cast<Index>(i), key);
+          ++k, ++i;
+          continue;
+        }
       }
-      if (!bvh.stalePair[i])
-        emit(static_cast<Index>(i), pairs.kind[i], pairs.first[i], pairs.second[i]);
+      if (!changedFirst[pairs.first[i]] && !changedSecond[pairs.second[i]])
+        emit(static_cast<Index>(i), keyOf(i));
       ++i;
     }
   };
-  bvh.keptBefore.assign(chunks + 1, 0);
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t chunk) {
+  tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t c) {
     std::size_t kept = 0;
-    mergeChunk(chunk, [&](Index, PairKind, Index, Index) { ++kept; });
-    bvh.keptBefore[chunk + 1] = kept;
+    mergeChunk(chunks[c], [&](Index, std::uint64_t) { ++kept; });
+    chunks[c].kept = kept;
   });
-  for (std::size_t chunk = 0; chunk < chunks; ++chunk)
-    bvh.keptBefore[chunk + 1] += bvh.keptBefore[chunk];
-  const std::size_t total = bvh.keptBefore[chunks];
+  std::size_t total = 0;
+  for (MergeChunk& chunk : chunks) {
+    const std::size_t kept = chunk.kept;
+    chunk.kept = total;  // now where the chunk's pairs go
+    total += kept;
+  }
   bvh.mergedKind.resize(total), bvh.mergedFirst.resize(total), bvh.mergedSecond.resize(total);
   pairs.formerIndex.resize(total);
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t chunk) {
-    std::size_t out = bvh.keptBefore[chunk];
-    mergeChunk(chunk, [&](Index former, PairKind kind, Index first, Index second) {
-      bvh.mergedKind[out] = kind, bvh.mergedFirst[out] = first, bvh.mergedSecond[out] = second;
+  tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t c) {
+    const MergeChunk& chunk = chunks[c];
+    std::size_t out = chunk.kept;
+    const auto kind = static_cast<PairKind>(chunk.kind);
+    mergeChunk(chunk, [&](Index former, std::uint64_t key) {
+      bvh.mergedKind[out] = kind;
+      bvh.mergedFirst[out] = static_cast<Index>(key >> 32);
+      bvh.mergedSecond[out] = static_cast<Index>(key & 0xffffffffu);
       pairs.formerIndex[out++] = former;
     });
   });
