@@ -1,12 +1,13 @@
 // Bounding volume hierarchies over the swept boxes of the collision primitives: the broad phase's
-// acceleration structure (systems/broad_phase.*), built with Embree.
+// acceleration structure (systems/broad_phase.*). Embree's builder (rtcBuildBVH, binned SAH)
+// makes each tree's topology, a binary tree with up to four boxes per leaf; its node bounds, its
+// refits and its traversals are the component's own, in a flat depth-first layout.
 //
 // Lifetime: a tree is built from scratch when the number of boxes it holds changes and refit
-// otherwise (Embree keeps the tree's topology and recomputes its node bounds from the new boxes),
-// which is what a simulation needs from one substep to the next. Four trees: triangles, edges,
-// all points and the isolated points. Embree itself stays inside
-// primitive_bvh.cpp, so that including this header (through world_state.h) does not pull in
-// Embree's headers.
+// otherwise (the topology kept, the node bounds recomputed from the new boxes), which is what a
+// simulation needs from one substep to the next. Four trees: triangles, edges, all points and the
+// isolated points. Embree itself stays inside systems/collision/primitive_bvh_embree.cpp, so that
+// including this header (through world_state.h) does not pull in Embree's headers.
 //
 // The component also keeps the broad phase's scratch (query boxes, per-chunk partner lists), so
 // that once its capacities have grown a call allocates nothing.
@@ -128,7 +129,7 @@ class PrimitiveBvh {
 
   // Makes every tree bound its current boxes: built from scratch where the number of boxes
   // differs from the one the tree was built for, refit otherwise. Returns whether any tree was
-  // built from scratch. A tree without boxes holds no Embree scene.
+  // built from scratch. A tree without boxes holds no nodes.
   bool commit();
 
   // Calls visit(context, i) once for every primitive i of `tree` whose box overlaps `query`, in no
@@ -137,12 +138,11 @@ class PrimitiveBvh {
   void forEachOverlap(BvhTree tree, const PrimitiveBox& query, Visitor visit, void* context) const;
 
   // Calls visit(context, a, b, count) with batches of the pairs (a[k], b[k]) of a primitive of
-  // `treeA` and one of `treeB` whose boxes overlap: every such pair, in no particular order and
-  // from many threads at once (Embree's dual-tree rtcCollide, which tests boxes four or eight at
-  // a time). A tree met with itself reports each pair once, as a < b. Call between two commits.
-  // The pairs are those of the trees' leaf bounds, which are the boxes, except that an empty box
-  // is bounded by the point at the origin: the visitor rejects pairs with an empty box (the
-  // broad phase's moving-box test does, before any other use of the pair).
+  // `treeA` and one of `treeB` whose boxes overlap: every such pair and no other, in no
+  // particular order and from many threads at once (a dual-tree traversal that splits the larger
+  // node, the boxes of two leaves tested pair by pair). A tree met with itself reports each pair
+  // once, as a < b: a node's pairs are those within each child and those across the two, so no
+  // pair of subtrees is visited twice. An empty box overlaps nothing. Call between two commits.
   using PairVisitor = void (*)(void* context, const Index* a, const Index* b, std::size_t count);
   void forEachOverlappingPair(BvhTree treeA, BvhTree treeB, PairVisitor visit, void* context) const;
 

@@ -142,8 +142,8 @@ std::size_t computeBoxes(PrimitiveBvh& bvh, BvhTree tree, std::size_t count,
 }
 
 // Pair lists per thread: one for each thread of the arena (by its index in it), and a last one,
-// shared under a lock, for a thread outside the arena (an Embree built with its own tasking
-// system runs its traversal on threads of its own).
+// shared under a lock, for a thread outside the arena (a caller that runs a traversal on threads
+// of its own).
 struct ThreadPairs {
   std::vector<std::vector<std::uint64_t>>* lists;
   std::mutex* overflowLock;
@@ -168,8 +168,8 @@ void prepareThreadPairs(std::vector<std::vector<std::uint64_t>>& lists) {
   for (std::vector<std::uint64_t>& list : lists) list.clear();
 }
 
-// What the pair callbacks need to filter a pair and keep it. Embree reports a few pairs per call
-// (about three on a folded cloth), so each arena thread gathers the pairs it keeps in a staging
+// What the pair callbacks need to filter a pair and keep it. The traversal reports pairs in
+// batches of up to a few hundred, so each arena thread gathers the pairs it keeps in a staging
 // buffer of its own and moves them to its list a few thousand at a time (flushStaging).
 struct PairFilter {
   const CollisionPrimitives* primitives;

@@ -5,20 +5,108 @@
 #include <cmath>
 
 #include <embree3/rtcore.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 namespace nucleon {
 
-// One Embree device and, per tree, a scene holding a single user geometry whose primitives are
-// the tree's boxes. The geometry handle is kept (Embree counts references) so that a refit can
-// commit it again.
+namespace {
+
+// A node of a flattened binary tree, in depth-first order: an inner node's first child is the next
+// node and `link` is its second; a leaf holds the primitives leafPrimitive[link .. link + count).
+struct FlatNode {
+  float lower[3];
+  std::uint32_t link;
+  float upper[3];
+  std::uint32_t count;  // 0: an inner node
+};
+
+// Closed float boxes, as `overlaps`; an empty box (lower above upper) overlaps nothing.
+[[gnu::always_inline]] inline bool nodesOverlap(const FlatNode& a, const FlatNode& b) {
+  return a.lower[0] <= b.upper[0] && b.lower[0] <= a.upper[0] && a.lower[1] <= b.upper[1] &&
+         b.lower[1] <= a.upper[1] && a.lower[2] <= b.upper[2] && b.lower[2] <= a.upper[2];
+}
+[[gnu::always_inline]] inline bool nodeOverlapsBox(const FlatNode& a, const PrimitiveBox& b) {
+  return a.lower[0] <= b.upper[0] && b.lower[0] <= a.upper[0] && a.lower[1] <= b.upper[1] &&
+         b.lower[1] <= a.upper[1] && a.lower[2] <= b.upper[2] && b.lower[2] <= a.upper[2];
+}
+[[gnu::always_inline]] inline bool boxesOverlap(const PrimitiveBox& a, const PrimitiveBox& b) {
+  return a.lower[0] <= b.upper[0] && b.lower[0] <= a.upper[0] && a.lower[1] <= b.upper[1] &&
+         b.lower[1] <= a.upper[1] && a.lower[2] <= b.upper[2] && b.lower[2] <= a.upper[2];
+}
+
+// The nodes Embree's builder makes, before they are flattened.
+constexpr unsigned kMaxLeafSize = 4;
+struct BuildNode {
+  BuildNode* child[2];
+  unsigned count;  // 0: an inner node
+  unsigned primitive[kMaxLeafSize];
+};
+
+void* createNode(RTCThreadLocalAllocator allocator, unsigned int, void*) {
+  auto* node = static_cast<BuildNode*>(
+      rtcThreadLocalAlloc(allocator, sizeof(BuildNode), alignof(BuildNode)));
+  node->child[0] = node->child[1] = nullptr;
+  node->count = 0;
+  return node;
+}
+void setNodeChildren(void* node, void** children, unsigned int count, void*) {
+  for (unsigned k = 0; k < count && k < 2; ++k)
+    static_cast<BuildNode*>(node)->child[k] = static_cast<BuildNode*>(children[k]);
+}
+void setNodeBounds(void*, const RTCBounds**, unsigned int, void*) {}  // the refit sets them
+void* createLeaf(RTCThreadLocalAllocator allocator, const RTCBuildPrimitive* primitives,
+                 size_t count, void*) {
+  auto* node = static_cast<BuildNode*>(
+      rtcThreadLocalAlloc(allocator, sizeof(BuildNode), alignof(BuildNode)));
+  node->child[0] = node->child[1] = nullptr;
+  node->count = static_cast<unsigned>(std::min<size_t>(count, kMaxLeafSize));
+  for (unsigned k = 0; k < node->count; ++k) node->primitive[k] = primitives[k].primID;
+  return node;
+}
+
+// A flattened tree: its nodes, the primitives of its leaves leaf by leaf, and their boxes in the
+// same order (copied at each refit, so that a leaf's boxes are read together).
+struct FlatTree {
+  std::vector<FlatNode> nodes;
+  std::vector<Index> leafPrimitive;
+  std::vector<PrimitiveBox> leafBox;
+  bool built() const { return !nodes.empty(); }
+};
+
+// Pairs reported to the caller's visitor a batch at a time.
+struct PairBatch {
+  PairBatch(PrimitiveBvh::PairVisitor v, void* c) : visit(v), context(c) {}
+  PrimitiveBvh::PairVisitor visit;
+  void* context;
+  static constexpr std::size_t kSize = 256;
+  Index a[kSize], b[kSize];
+  std::size_t count = 0;
+
+  void add(Index first, Index second) {
+    a[count] = first, b[count] = second;
+    if (++count == kSize) flush();
+  }
+  void flush() {
+    if (count > 0) visit(context, a, b, count);
+    count = 0;
+  }
+};
+
+}  // namespace
+
+// Per tree, a binary tree over the tree's boxes whose topology Embree's builder makes
+// (rtcBuildBVH, binned SAH, up to kMaxLeafSize boxes per leaf) and whose node bounds, traversals
+// and refits are ours: a refit is one pass over the nodes from the last to the first (children
+// follow their parents in depth-first order), the leaves' boxes copied in leaf order so that a
+// leaf's boxes are read together.
 struct PrimitiveBvh::Embree {
   RTCDevice device = nullptr;
-  std::array<RTCScene, kBvhTreeCount> scene{};
-  std::array<RTCGeometry, kBvhTreeCount> geometry{};
   std::atomic<std::size_t> errors{0};
+  std::array<FlatTree, kBvhTreeCount> tree;
 
   Embree() {
-    // threads=0 leaves the thread count to oneTBB, so a commit runs in the caller's task arena
+    // threads=0 leaves the thread count to oneTBB, so a build runs in the caller's task arena
     // with its concurrency (Embree's TBB scheduler only installs a global_control when a count
     // is given).
     device = rtcNewDevice("threads=0,verbose=0");
@@ -34,109 +122,224 @@ struct PrimitiveBvh::Embree {
         &errors);
   }
   ~Embree() {
-    for (std::size_t t = 0; t < kBvhTreeCount; ++t) release(t);
     if (device) rtcReleaseDevice(device);
   }
   Embree(const Embree&) = delete;
   Embree& operator=(const Embree&) = delete;
 
   void release(std::size_t t) {
-    if (geometry[t]) rtcReleaseGeometry(geometry[t]);
-    if (scene[t]) rtcReleaseScene(scene[t]);
-    geometry[t] = nullptr;
-    scene[t] = nullptr;
+    tree[t].nodes.clear();
+    tree[t].leafPrimitive.clear();
+    tree[t].leafBox.clear();
   }
 
-  // Embree asks for the bounds of each primitive while it builds or refits. Bounds must be finite
-  // and ordered, or the build drops the primitive (and a refit would spread NaNs through the
-  // nodes): an empty box is reported as the point at the origin. It can never be reported back,
-  // since the exact overlap test in the query callback rejects empty boxes.
-  static void bounds(const RTCBoundsFunctionArguments* args) {
-    const PrimitiveBox& box = static_cast<const PrimitiveBox*>(args->geometryUserPtr)[args->primID];
-    RTCBounds& out = *args->bounds_o;
-    if (box.isEmpty()) {
-      out.lower_x = out.lower_y = out.lower_z = 0;
-      out.upper_x = out.upper_y = out.upper_z = 0;
-      return;
-    }
-    out.lower_x = box.lower[0], out.lower_y = box.lower[1], out.lower_z = box.lower[2];
-    out.upper_x = box.upper[0], out.upper_y = box.upper[1], out.upper_z = box.upper[2];
-  }
-
+  // The topology from Embree's builder over the boxes as they are now. An empty box is built as
+  // the point at the origin: the builder needs finite, ordered bounds, and the refit that follows
+  // gives the node its true (empty) box.
   void build(std::size_t t, const std::vector<PrimitiveBox>& boxes) {
     release(t);
     if (boxes.empty() || !device) return;
-    scene[t] = rtcNewScene(device);
-    // Embree honours a geometry's REFIT quality only under a LOW quality scene, which builds a
-    // two-level structure: a tree per geometry (here a refittable one) under a top-level tree
-    // (rtcSetGeometryBuildQuality, rtcSetSceneBuildQuality). And only in a DYNAMIC scene: after
-    // committing any other scene Embree makes its structures immutable and drops their builders
-    // (Scene::commit, accels_immutable), so that the next commit creates a fresh refit builder,
-    // whose first run is a full build. Measured with 200k boxes on one thread: 82 ms per commit
-    // without the flag, 2.3 ms with it.
-    rtcSetSceneBuildQuality(scene[t], RTC_BUILD_QUALITY_LOW);
-    rtcSetSceneFlags(scene[t], RTC_SCENE_FLAG_DYNAMIC);
-    geometry[t] = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
-    rtcSetGeometryBuildQuality(geometry[t], RTC_BUILD_QUALITY_REFIT);
-    rtcSetGeometryUserPrimitiveCount(geometry[t], static_cast<unsigned>(boxes.size()));
-    rtcSetGeometryBoundsFunction(geometry[t], &Embree::bounds, nullptr);
-    rtcSetGeometryUserData(geometry[t], const_cast<PrimitiveBox*>(boxes.data()));
-    rtcCommitGeometry(geometry[t]);
-    rtcAttachGeometryByID(scene[t], geometry[t], 0);
-    rtcCommitScene(scene[t]);
+    std::vector<RTCBuildPrimitive> primitives(boxes.size());
+    for (std::size_t i = 0; i < boxes.size(); ++i) {
+      const PrimitiveBox& box = boxes[i];
+      RTCBuildPrimitive& p = primitives[i];
+      if (box.isEmpty()) {
+        p.lower_x = p.lower_y = p.lower_z = p.upper_x = p.upper_y = p.upper_z = 0;
+      } else {
+        p.lower_x = box.lower[0], p.lower_y = box.lower[1], p.lower_z = box.lower[2];
+        p.upper_x = box.upper[0], p.upper_y = box.upper[1], p.upper_z = box.upper[2];
+      }
+      p.geomID = 0;
+      p.primID = static_cast<unsigned>(i);
+    }
+    RTCBVH bvh = rtcNewBVH(device);
+    if (!bvh) {
+      ++errors;
+      return;
+    }
+    RTCBuildArguments arguments = rtcDefaultBuildArguments();
+    arguments.buildQuality = RTC_BUILD_QUALITY_MEDIUM;
+    arguments.maxBranchingFactor = 2;
+    arguments.maxDepth = 64;
+    arguments.minLeafSize = 1;
+    arguments.maxLeafSize = kMaxLeafSize;
+    arguments.bvh = bvh;
+    arguments.primitives = primitives.data();
+    arguments.primitiveCount = primitives.size();
+    arguments.primitiveArrayCapacity = primitives.size();
+    arguments.createNode = &createNode;
+    arguments.setNodeChildren = &setNodeChildren;
+    arguments.setNodeBounds = &setNodeBounds;
+    arguments.createLeaf = &createLeaf;
+    const auto* root = static_cast<const BuildNode*>(rtcBuildBVH(&arguments));
+    if (root) flatten(tree[t], root, boxes.size());
+    rtcReleaseBVH(bvh);
+    if (!root || tree[t].leafPrimitive.size() != boxes.size()) {
+      ++errors;
+      release(t);
+    }
   }
 
+  static void flatten(FlatTree& out, const BuildNode* root, std::size_t primitives) {
+    out.nodes.clear();
+    out.leafPrimitive.clear();
+    out.leafPrimitive.reserve(primitives);
+    // Depth first, first child first; a second child's place is written when it is reached.
+    std::vector<std::pair<const BuildNode*, std::size_t>> stack{{root, ~std::size_t{0}}};
+    while (!stack.empty()) {
+      const auto [node, parent] = stack.back();
+      stack.pop_back();
+      const std::size_t index = out.nodes.size();
+      if (parent != ~std::size_t{0}) out.nodes[parent].link = static_cast<std::uint32_t>(index);
+      FlatNode flat{};
+      if (node->count > 0) {
+        flat.link = static_cast<std::uint32_t>(out.leafPrimitive.size());
+        flat.count = node->count;
+        for (unsigned k = 0; k < node->count; ++k) out.leafPrimitive.push_back(node->primitive[k]);
+        out.nodes.push_back(flat);
+        continue;
+      }
+      out.nodes.push_back(flat);
+      stack.push_back({node->child[1], index});
+      stack.push_back({node->child[0], ~std::size_t{0}});
+    }
+    out.leafBox.resize(out.leafPrimitive.size());
+  }
+
+  // Node bounds from the boxes: the leaves' boxes copied in leaf order, then every node from the
+  // last to the first as the box of its children (an empty box adds nothing: its lower corner is
+  // above every upper one).
   void refit(std::size_t t, const std::vector<PrimitiveBox>& boxes) {
-    // Committing the geometry again marks it modified; the scene commit then refits its tree in
-    // place, asking the bounds callback for every box, and rebuilds only the top level.
-    rtcSetGeometryUserData(geometry[t], const_cast<PrimitiveBox*>(boxes.data()));
-    rtcCommitGeometry(geometry[t]);
-    rtcCommitScene(scene[t]);
+    FlatTree& tr = tree[t];
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tr.leafPrimitive.size(), 4096),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t k = r.begin(); k != r.end(); ++k)
+                          tr.leafBox[k] = boxes[tr.leafPrimitive[k]];
+                      });
+    constexpr float kBig = 3.0e38f;
+    for (std::size_t i = tr.nodes.size(); i-- > 0;) {
+      FlatNode& node = tr.nodes[i];
+      float lower[3] = {kBig, kBig, kBig}, upper[3] = {-kBig, -kBig, -kBig};
+      const auto add = [&](const float(&lo)[3], const float(&hi)[3]) {
+        for (int k = 0; k < 3; ++k) lower[k] = std::min(lower[k], lo[k]);
+        for (int k = 0; k < 3; ++k) upper[k] = std::max(upper[k], hi[k]);
+      };
+      if (node.count > 0) {
+        for (std::uint32_t k = node.link; k < node.link + node.count; ++k) {
+          const PrimitiveBox& box = tr.leafBox[k];
+          for (int a = 0; a < 3; ++a) lower[a] = std::min(lower[a], box.lower[a]);
+          for (int a = 0; a < 3; ++a) upper[a] = std::max(upper[a], box.upper[a]);
+        }
+      } else {
+        add(tr.nodes[i + 1].lower, tr.nodes[i + 1].upper);
+        add(tr.nodes[node.link].lower, tr.nodes[node.link].upper);
+      }
+      for (int k = 0; k < 3; ++k) node.lower[k] = lower[k], node.upper[k] = upper[k];
+    }
   }
 };
 
 namespace {
 
-// What a point query's callback needs: the tree's boxes for the exact test, the query box, and
-// the caller's visitor.
-struct OverlapQuery {
-  const PrimitiveBox* boxes;
-  const PrimitiveBox* query;
-  PrimitiveBvh::Visitor visit;
-  void* context;
-};
-
-// Embree calls this for every primitive in the leaves the query sphere reaches, with no test of
-// the primitive's own bounds (user geometry), so the exact box test is ours. The radius is never
-// shrunk: returning false tells Embree the query is unchanged.
-bool onCandidate(RTCPointQueryFunctionArguments* args) {
-  const auto& q = *static_cast<const OverlapQuery*>(args->userPtr);
-  if (overlaps(q.boxes[args->primID], *q.query)) q.visit(q.context, args->primID);
-  return false;
+// Children of inner node i.
+inline std::uint32_t firstChild(std::uint32_t i) {
+  return i + 1;
 }
 
-// What a collide callback needs: the caller's visitor.
-struct CollideQuery {
-  PrimitiveBvh::PairVisitor visit;
-  void* context;
-  bool self;  // a tree met with itself: Embree reports (a, b) and (b, a), and (a, a)
-};
-
-// Embree reports pairs of leaf primitives whose leaves' bounds overlap (user geometry); a leaf's
-// bounds are its box (an empty box: the origin, which the visitor rejects), so they are passed on
-// without another test of the same boxes.
-void onCollisions(void* user, RTCCollision* collisions, unsigned count) {
-  const auto& q = *static_cast<const CollideQuery*>(user);
-  constexpr unsigned kBatch = 256;
-  Index a[kBatch], b[kBatch];
-  std::size_t kept = 0;
-  for (unsigned i = 0; i < count; ++i) {
-    const RTCCollision& c = collisions[i];
-    if (q.self && c.primID0 >= c.primID1) continue;
-    a[kept] = c.primID0, b[kept] = c.primID1;
-    if (++kept == kBatch) q.visit(q.context, a, b, kept), kept = 0;
+// Every pair of a leaf of `a` and a leaf of `b` under nodes i and j whose boxes overlap: the
+// larger node is split until both are leaves. `self`: a and b are one tree, and i and j are
+// disjoint subtrees of it (each pair is then met once); pairs are reported as (lower, higher).
+void collideNodes(const FlatTree& a, std::uint32_t i, const FlatTree& b, std::uint32_t j, bool self,
+                  PairBatch& out) {
+  const FlatNode& ni = a.nodes[i];
+  const FlatNode& nj = b.nodes[j];
+  if (!nodesOverlap(ni, nj)) return;
+  if (ni.count > 0 && nj.count > 0) {
+    for (std::uint32_t p = ni.link; p < ni.link + ni.count; ++p)
+      for (std::uint32_t q = nj.link; q < nj.link + nj.count; ++q) {
+        if (!boxesOverlap(a.leafBox[p], b.leafBox[q])) continue;
+        const Index first = a.leafPrimitive[p], second = b.leafPrimitive[q];
+        if (self)
+          out.add(std::min(first, second), std::max(first, second));
+        else
+          out.add(first, second);
+      }
+    return;
   }
-  if (kept > 0) q.visit(q.context, a, b, kept);
+  // Split the node that is not a leaf, the one with the larger box if both are not.
+  const auto extent = [](const FlatNode& n) {
+    return (n.upper[0] - n.lower[0]) + (n.upper[1] - n.lower[1]) + (n.upper[2] - n.lower[2]);
+  };
+  if (nj.count > 0 || (ni.count == 0 && extent(ni) >= extent(nj))) {
+    collideNodes(a, firstChild(i), b, j, self, out);
+    collideNodes(a, ni.link, b, j, self, out);
+  } else {
+    collideNodes(a, i, b, firstChild(j), self, out);
+    collideNodes(a, i, b, nj.link, self, out);
+  }
+}
+
+// Every pair of primitives under node i of one tree whose boxes overlap, once each.
+void collideWithin(const FlatTree& t, std::uint32_t i, PairBatch& out) {
+  const FlatNode& node = t.nodes[i];
+  if (node.count > 0) {
+    for (std::uint32_t p = node.link; p < node.link + node.count; ++p)
+      for (std::uint32_t q = p + 1; q < node.link + node.count; ++q) {
+        if (!boxesOverlap(t.leafBox[p], t.leafBox[q])) continue;
+        const Index first = t.leafPrimitive[p], second = t.leafPrimitive[q];
+        out.add(std::min(first, second), std::max(first, second));
+      }
+    return;
+  }
+  collideWithin(t, firstChild(i), out);
+  collideWithin(t, node.link, out);
+  collideNodes(t, firstChild(i), t, node.link, true, out);
+}
+
+// Splits the traversal into tasks for the top `depth` levels, then runs each part on one thread
+// with a batch of its own.
+constexpr int kTaskDepth = 9;
+
+void collideNodesParallel(const FlatTree& a, std::uint32_t i, const FlatTree& b, std::uint32_t j,
+                          bool self, PrimitiveBvh::PairVisitor visit, void* context, int depth) {
+  const FlatNode& ni = a.nodes[i];
+  const FlatNode& nj = b.nodes[j];
+  if (!nodesOverlap(ni, nj)) return;
+  if (depth >= kTaskDepth || (ni.count > 0 && nj.count > 0)) {
+    PairBatch batch{visit, context};
+    collideNodes(a, i, b, j, self, batch);
+    batch.flush();
+    return;
+  }
+  const auto extent = [](const FlatNode& n) {
+    return (n.upper[0] - n.lower[0]) + (n.upper[1] - n.lower[1]) + (n.upper[2] - n.lower[2]);
+  };
+  if (nj.count > 0 || (ni.count == 0 && extent(ni) >= extent(nj))) {
+    tbb::parallel_invoke(
+        [&] { collideNodesParallel(a, firstChild(i), b, j, self, visit, context, depth + 1); },
+        [&] { collideNodesParallel(a, ni.link, b, j, self, visit, context, depth + 1); });
+  } else {
+    tbb::parallel_invoke(
+        [&] { collideNodesParallel(a, i, b, firstChild(j), self, visit, context, depth + 1); },
+        [&] { collideNodesParallel(a, i, b, nj.link, self, visit, context, depth + 1); });
+  }
+}
+
+void collideWithinParallel(const FlatTree& t, std::uint32_t i, PrimitiveBvh::PairVisitor visit,
+                           void* context, int depth) {
+  const FlatNode& node = t.nodes[i];
+  if (depth >= kTaskDepth || node.count > 0) {
+    PairBatch batch{visit, context};
+    collideWithin(t, i, batch);
+    batch.flush();
+    return;
+  }
+  tbb::parallel_invoke([&] { collideWithinParallel(t, firstChild(i), visit, context, depth + 1); },
+                       [&] { collideWithinParallel(t, node.link, visit, context, depth + 1); },
+                       [&] {
+                         collideNodesParallel(t, firstChild(i), t, node.link, true, visit, context,
+                                              depth + 1);
+                       });
 }
 
 }  // namespace
@@ -151,22 +354,22 @@ bool PrimitiveBvh::commit() {
   for (std::size_t t = 0; t < kBvhTreeCount; ++t) {
     const std::vector<PrimitiveBox>& treeBoxes = boxes[t];
     if (treeBoxes.empty()) {
-      if (embree_ && embree_->scene[t]) embree_->release(t);
+      if (embree_) embree_->release(t);
       rebuilt |= builtCount_[t] != 0;
       builtCount_[t] = 0;
       continue;
     }
     // The device is made on first use: a world without collisions never starts Embree.
     if (!embree_) embree_ = std::make_unique<Embree>();
-    if (embree_->scene[t] && builtCount_[t] == treeBoxes.size()) {
-      embree_->refit(t, treeBoxes);
+    if (embree_->tree[t].built() && builtCount_[t] == treeBoxes.size()) {
       ++refits_;
     } else {
       embree_->build(t, treeBoxes);
-      builtCount_[t] = treeBoxes.size();
+      builtCount_[t] = embree_->tree[t].built() ? treeBoxes.size() : 0;
       ++builds_;
       rebuilt = true;
     }
+    if (embree_->tree[t].built()) embree_->refit(t, treeBoxes);
   }
   return rebuilt;
 }
@@ -174,39 +377,33 @@ bool PrimitiveBvh::commit() {
 void PrimitiveBvh::forEachOverlap(BvhTree tree, const PrimitiveBox& query, Visitor visit,
                                   void* context) const {
   const std::size_t t = static_cast<std::size_t>(tree);
-  if (!embree_ || !embree_->scene[t] || query.isEmpty()) return;
-  // Embree's point query culls nodes by a sphere, so the query is the sphere around the box:
-  // centre and radius in double, then the radius widened by a relative and an absolute slack
-  // that cover the float rounding of the centre and of Embree's own node distance tests. Being
-  // larger than needed costs only callbacks that the exact test rejects.
-  double center[3];
-  double radius2 = 0;
-  double largest = 0;
-  for (int k = 0; k < 3; ++k) {
-    center[k] = 0.5 * (double(query.lower[k]) + double(query.upper[k]));
-    const double half = 0.5 * (double(query.upper[k]) - double(query.lower[k]));
-    radius2 += half * half;
-    largest =
-        std::max({largest, std::abs(double(query.lower[k])), std::abs(double(query.upper[k]))});
+  if (!embree_ || !embree_->tree[t].built() || query.isEmpty()) return;
+  const FlatTree& tr = embree_->tree[t];
+  std::uint32_t stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const std::uint32_t i = stack[--top];
+    const FlatNode& node = tr.nodes[i];
+    if (!nodeOverlapsBox(node, query)) continue;
+    if (node.count > 0) {
+      for (std::uint32_t k = node.link; k < node.link + node.count; ++k)
+        if (boxesOverlap(tr.leafBox[k], query)) visit(context, tr.leafPrimitive[k]);
+      continue;
+    }
+    stack[top++] = node.link;
+    stack[top++] = firstChild(i);
   }
-  RTCPointQuery point;
-  point.x = float(center[0]);
-  point.y = float(center[1]);
-  point.z = float(center[2]);
-  point.radius = float(std::sqrt(radius2) * (1 + 1e-5) + largest * 1e-6);
-  point.time = 0;
-  RTCPointQueryContext pointContext;
-  rtcInitPointQueryContext(&pointContext);
-  OverlapQuery overlap{boxes[t].data(), &query, visit, context};
-  rtcPointQuery(embree_->scene[t], &point, &pointContext, &onCandidate, &overlap);
 }
 
 void PrimitiveBvh::forEachOverlappingPair(BvhTree treeA, BvhTree treeB, PairVisitor visit,
                                           void* context) const {
   const std::size_t a = static_cast<std::size_t>(treeA), b = static_cast<std::size_t>(treeB);
-  if (!embree_ || !embree_->scene[a] || !embree_->scene[b]) return;
-  CollideQuery query{visit, context, a == b};
-  rtcCollide(embree_->scene[a], embree_->scene[b], &onCollisions, &query);
+  if (!embree_ || !embree_->tree[a].built() || !embree_->tree[b].built()) return;
+  if (a == b)
+    collideWithinParallel(embree_->tree[a], 0, visit, context, 0);
+  else
+    collideNodesParallel(embree_->tree[a], 0, embree_->tree[b], 0, false, visit, context, 0);
 }
 
 std::size_t PrimitiveBvh::embreeErrors() const {
