@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -29,19 +30,29 @@ constexpr auto kEdgeTree = static_cast<std::size_t>(BvhTree::Edges);
 constexpr auto kIsolatedTree = static_cast<std::size_t>(BvhTree::IsolatedPoints);
 constexpr auto kPointTree = static_cast<std::size_t>(BvhTree::Points);
 
+// The float next to finite f toward +∞ (up) or −∞: std::nextafter's result, without its call
+// (moving away from zero adds one to the magnitude's bits, moving toward it takes one off).
+inline float nextFloat(float f, bool up) {
+  if (f == 0)
+    return up ? std::numeric_limits<float>::denorm_min()
+              : -std::numeric_limits<float>::denorm_min();
+  auto bits = std::bit_cast<std::uint32_t>(f);
+  bits = (f > 0) == up ? bits + 1 : bits - 1;
+  return std::bit_cast<float>(bits);
+}
+
 // The double box lower … upper grown by `grow`, rounded to the nearest float and then one float
 // further out: the float box contains the double one whatever the rounding of the conversion and
 // of the double arithmetic before it. Empty if a coordinate is not finite or beyond ±1e18.
 PrimitiveBox outwardBox(const double (&lower)[3], const double (&upper)[3], double grow) {
   if (!(std::abs(grow) <= kMaxCoordinate)) return PrimitiveBox::empty();
-  constexpr float kInfinite = std::numeric_limits<float>::infinity();
   PrimitiveBox box;
   for (int k = 0; k < 3; ++k) {
     const double lo = lower[k] - grow, hi = upper[k] + grow;
     if (!(std::abs(lo) <= kMaxCoordinate && std::abs(hi) <= kMaxCoordinate))
       return PrimitiveBox::empty();
-    box.lower[k] = std::nextafter(static_cast<float>(lo), -kInfinite);
-    box.upper[k] = std::nextafter(static_cast<float>(hi), kInfinite);
+    box.lower[k] = nextFloat(static_cast<float>(lo), false);
+    box.upper[k] = nextFloat(static_cast<float>(hi), true);
   }
   return box;
 }

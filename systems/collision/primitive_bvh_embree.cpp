@@ -206,9 +206,10 @@ struct PrimitiveBvh::Embree {
     out.leafBox.resize(out.leafPrimitive.size());
   }
 
-  // Node bounds from the boxes: the leaves' boxes copied in leaf order, then every node from the
-  // last to the first as the box of its children (an empty box adds nothing: its lower corner is
-  // above every upper one).
+  // Node bounds from the boxes: the leaves' boxes copied in leaf order, then every node as the box
+  // of its children (an empty box adds nothing: its lower corner is above every upper one), the
+  // subtrees of the top levels in parallel and each of theirs from its last node to its first
+  // (children follow their parents in depth-first order).
   void refit(std::size_t t, const std::vector<PrimitiveBox>& boxes) {
     FlatTree& tr = tree[t];
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tr.leafPrimitive.size(), 4096),
@@ -216,8 +217,30 @@ struct PrimitiveBvh::Embree {
                         for (std::size_t k = r.begin(); k != r.end(); ++k)
                           tr.leafBox[k] = boxes[tr.leafPrimitive[k]];
                       });
+    refitSubtree(tr, 0, 0);
+  }
+
+  // Node i's box from its children's, which are refit first. Returns the node after its subtree.
+  static std::uint32_t refitSubtree(FlatTree& tr, std::uint32_t i, int depth) {
+    FlatNode& top = tr.nodes[i];
+    if (top.count == 0 && depth < kRefitTaskDepth) {
+      std::uint32_t end = 0;
+      tbb::parallel_invoke([&] { refitSubtree(tr, i + 1, depth + 1); },
+                           [&] { end = refitSubtree(tr, top.link, depth + 1); });
+      refitNode(tr, i);
+      return end;
+    }
+    // The subtree is the nodes from i up to the first node that is not in it: found by walking
+    // down the second children to the last leaf.
+    std::uint32_t last = i;
+    while (tr.nodes[last].count == 0) last = tr.nodes[last].link;
+    for (std::uint32_t k = last + 1; k-- > i;) refitNode(tr, k);
+    return last + 1;
+  }
+
+  static void refitNode(FlatTree& tr, std::uint32_t i) {
     constexpr float kBig = 3.0e38f;
-    for (std::size_t i = tr.nodes.size(); i-- > 0;) {
+    {
       FlatNode& node = tr.nodes[i];
       float lower[3] = {kBig, kBig, kBig}, upper[3] = {-kBig, -kBig, -kBig};
       const auto add = [&](const float(&lo)[3], const float(&hi)[3]) {
@@ -237,6 +260,7 @@ struct PrimitiveBvh::Embree {
       for (int k = 0; k < 3; ++k) node.lower[k] = lower[k], node.upper[k] = upper[k];
     }
   }
+  static constexpr int kRefitTaskDepth = 4;
 };
 
 namespace {
