@@ -57,9 +57,12 @@ inline bool overlaps(const PrimitiveBox& a, const PrimitiveBox& b) {
                                                 const PrimitiveBox& startB,
                                                 const PrimitiveBox& endB, double since = 0) {
   if (startA.isEmpty() || endA.isEmpty() || startB.isEmpty() || endB.isEmpty()) return false;
-  // Most pairs that meet overlap at the start: comparing the floats themselves is exact, and
-  // whenever they overlap so do the double figures below (each g0 is then at least the tolerance).
+  // Most pairs that meet overlap at the start or at the end: comparing the floats themselves is
+  // exact, and whenever they overlap the double figures below say the same (each g0, or each g1,
+  // is then at least the tolerance; with every g1 positive, a crossing g0 / (g0 − g1) rounds to at
+  // most 1).
   if (since == 0 && overlaps(startA, startB)) return true;
+  if (overlaps(endA, endB)) return true;
   constexpr double kTolerance = 1e-9;
   // g(t) = g0 + t (g1 − g0) ≥ 0 for the room between a lower and an upper side, over the
   // interval from `since` (g0 taken there) to its end. Most pairs that meet already overlap at
