@@ -153,7 +153,9 @@ class PrimitiveBvh {
   // Trees built from scratch and trees refit, over the component's lifetime.
   std::size_t builds() const { return builds_; }
   std::size_t refits() const { return refits_; }
-  // Errors Embree reported to the device's error callback (none in a healthy run).
+  // Errors Embree reported to the device's error callback, and builds that failed (none in a
+  // healthy run). A failed build leaves its tree one leaf of every box: complete but slow. The
+  // world reports the count as collisions.broad_phase_tree_errors.
   std::size_t embreeErrors() const;
 
   // Broad phase scratch, kept between calls for its capacity.

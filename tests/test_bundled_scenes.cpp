@@ -55,6 +55,8 @@ TEST_P(EveryBundledScene, RunsWithoutRepairsOrNonFiniteValues) {
   // at any frame end (the exact checker). Scenes without self-collision (a hanging cloth may
   // fold through itself) are not held to it.
   EXPECT_EQ(j.at("collisions").at("unresolved_pairs").get<long long>(), 0);
+  // Every broad-phase tree was built by Embree's builder (none fell back to a single leaf).
+  EXPECT_EQ(j.at("collisions").at("broad_phase_tree_errors").get<long long>(), 0);
   // No free particle ends any frame behind the ground's or a sphere's surface.
   EXPECT_EQ(j.at("failures").at("frames_inside_colliders").get<long long>(), 0);
   const std::vector<std::string> collisionScenes = {

@@ -363,6 +363,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
         {"most_substeps", c.mostSubsteps},
         {"capped_substep_steps", c.cappedSubstepSteps},
         {"unresolved_pairs", c.unresolvedPairs},
+        {"broad_phase_tree_errors", c.broadPhaseTreeErrors},
         {"first_crossing_step",
          c.firstCrossingStep > 0 ? nlohmann::json(c.firstCrossingStep) : nlohmann::json()}};
   }

@@ -621,6 +621,7 @@ void World::step(double dt) {
       impl.state.time = context.endTime;
     }
   });
+  s.collisionReport.broadPhaseTreeErrors = s.bvh.embreeErrors();
   ++impl.state.profile.steps;
 }
 

@@ -76,6 +76,9 @@ struct CollisionReport {
   // with those particles pinned, pulling their neighbours back to them.
   std::uint64_t carryRelaxations = 0;
   std::uint64_t unresolvedPairs = 0;  // pairs still crossing at the fail-safe's round limit
+  // Errors of the broad phase's tree builder (Embree's device), each build that failed having
+  // fallen back to a tree of one leaf: complete, but every pair of its boxes is tested.
+  std::uint64_t broadPhaseTreeErrors = 0;
   // Steps that took more substeps than the solver's setting because a kinematic particle (a
   // moving collider's or an animated pin) moved fast (SolverSettings::maxKinematicTravel), the
   // most substeps any step took, and the steps that needed more than SolverSettings::maxSubsteps

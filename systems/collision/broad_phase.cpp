@@ -738,7 +738,8 @@ Vec3 clampIntoBounds(const CandidatePairs& pairs, std::size_t i, const Vec3& p) 
 namespace {
 
 // One query of the incremental re-detection: a changed primitive (`self`) against a tree, each
-// partner the tree reports made a pair (first, second) of `kind` and kept if admissible.
+// partner the tree reports made a pair (first, second) of the visitor's kind (keepExtension) and
+// kept if admissible.
 struct ExtensionQuery {
   const CollisionPrimitives* primitives;
   const Real* w;
@@ -746,7 +747,6 @@ struct ExtensionQuery {
   ThreadPairs found;
   std::array<std::uint64_t, 256> kept;  // pairs kept, appended to `found` when full and at the end
   std::size_t keptCount;
-  PairKind kind;
   Index self;
   bool selfFirst;        // the query primitive is the pair's first
   bool partnerIsolated;  // the tree is IsolatedPoints: its primitives map to points
@@ -981,7 +981,6 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                                              ThreadPairs{&bvh.threadPairs, &overflowLock},
                                              {},
                                              0,
-                                             search.kind,
                                              0,
                                              search.selfFirst,
                                              search.tree == BvhTree::IsolatedPoints,

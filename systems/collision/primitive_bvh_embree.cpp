@@ -21,16 +21,10 @@ struct FlatNode {
   std::uint32_t count;  // 0: an inner node
 };
 
-// Closed float boxes, as `overlaps`; an empty box (lower above upper) overlaps nothing.
-[[gnu::always_inline]] inline bool nodesOverlap(const FlatNode& a, const FlatNode& b) {
-  return a.lower[0] <= b.upper[0] && b.lower[0] <= a.upper[0] && a.lower[1] <= b.upper[1] &&
-         b.lower[1] <= a.upper[1] && a.lower[2] <= b.upper[2] && b.lower[2] <= a.upper[2];
-}
-[[gnu::always_inline]] inline bool nodeOverlapsBox(const FlatNode& a, const PrimitiveBox& b) {
-  return a.lower[0] <= b.upper[0] && b.lower[0] <= a.upper[0] && a.lower[1] <= b.upper[1] &&
-         b.lower[1] <= a.upper[1] && a.lower[2] <= b.upper[2] && b.lower[2] <= a.upper[2];
-}
-[[gnu::always_inline]] inline bool boxesOverlap(const PrimitiveBox& a, const PrimitiveBox& b) {
+// Closed float boxes (nodes or primitive boxes), as `overlaps`: an empty box (lower above upper)
+// overlaps nothing, without a test of its own.
+template <class A, class B>
+[[gnu::always_inline]] inline bool boxesOverlap(const A& a, const B& b) {
   return a.lower[0] <= b.upper[0] && b.lower[0] <= a.upper[0] && a.lower[1] <= b.upper[1] &&
          b.lower[1] <= a.upper[1] && a.lower[2] <= b.upper[2] && b.lower[2] <= a.upper[2];
 }
@@ -97,9 +91,7 @@ struct PairBatch {
 
 // Per tree, a binary tree over the tree's boxes whose topology Embree's builder makes
 // (rtcBuildBVH, binned SAH, up to kMaxLeafSize boxes per leaf) and whose node bounds, traversals
-// and refits are ours: a refit is one pass over the nodes from the last to the first (children
-// follow their parents in depth-first order), the leaves' boxes copied in leaf order so that a
-// leaf's boxes are read together.
+// and refits are ours.
 struct PrimitiveBvh::Embree {
   RTCDevice device = nullptr;
   std::atomic<std::size_t> errors{0};
@@ -138,7 +130,11 @@ struct PrimitiveBvh::Embree {
   // gives the node its true (empty) box.
   void build(std::size_t t, const std::vector<PrimitiveBox>& boxes) {
     release(t);
-    if (boxes.empty() || !device) return;
+    if (boxes.empty()) return;
+    if (!device) {
+      singleLeaf(tree[t], boxes.size());
+      return;
+    }
     std::vector<RTCBuildPrimitive> primitives(boxes.size());
     for (std::size_t i = 0; i < boxes.size(); ++i) {
       const PrimitiveBox& box = boxes[i];
@@ -154,7 +150,7 @@ struct PrimitiveBvh::Embree {
     }
     RTCBVH bvh = rtcNewBVH(device);
     if (!bvh) {
-      ++errors;
+      singleLeaf(tree[t], boxes.size());
       return;
     }
     RTCBuildArguments arguments = rtcDefaultBuildArguments();
@@ -174,10 +170,17 @@ struct PrimitiveBvh::Embree {
     const auto* root = static_cast<const BuildNode*>(rtcBuildBVH(&arguments));
     if (root) flatten(tree[t], root, boxes.size());
     rtcReleaseBVH(bvh);
-    if (!root || tree[t].leafPrimitive.size() != boxes.size()) {
-      ++errors;
-      release(t);
-    }
+    if (!root || tree[t].leafPrimitive.size() != boxes.size()) singleLeaf(tree[t], boxes.size());
+  }
+
+  // A failed build (the device's error, or a leaf the builder made larger than asked) leaves the
+  // tree one leaf of every box: slow (every pair is tested) but complete, and counted.
+  void singleLeaf(FlatTree& out, std::size_t count) {
+    ++errors;
+    out.nodes.assign(1, FlatNode{{0, 0, 0}, 0, {0, 0, 0}, static_cast<std::uint32_t>(count)});
+    out.leafPrimitive.resize(count);
+    for (std::size_t i = 0; i < count; ++i) out.leafPrimitive[i] = static_cast<Index>(i);
+    out.leafBox.resize(count);
   }
 
   static void flatten(FlatTree& out, const BuildNode* root, std::size_t primitives) {
@@ -220,45 +223,37 @@ struct PrimitiveBvh::Embree {
     refitSubtree(tr, 0, 0);
   }
 
-  // Node i's box from its children's, which are refit first. Returns the node after its subtree.
-  static std::uint32_t refitSubtree(FlatTree& tr, std::uint32_t i, int depth) {
-    FlatNode& top = tr.nodes[i];
+  // The boxes of node i's subtree, children before parents.
+  static void refitSubtree(FlatTree& tr, std::uint32_t i, int depth) {
+    const FlatNode& top = tr.nodes[i];
     if (top.count == 0 && depth < kRefitTaskDepth) {
-      std::uint32_t end = 0;
       tbb::parallel_invoke([&] { refitSubtree(tr, i + 1, depth + 1); },
-                           [&] { end = refitSubtree(tr, top.link, depth + 1); });
+                           [&] { refitSubtree(tr, top.link, depth + 1); });
       refitNode(tr, i);
-      return end;
+      return;
     }
-    // The subtree is the nodes from i up to the first node that is not in it: found by walking
-    // down the second children to the last leaf.
+    // The subtree's nodes run from i to its last leaf, reached down the second children.
     std::uint32_t last = i;
     while (tr.nodes[last].count == 0) last = tr.nodes[last].link;
     for (std::uint32_t k = last + 1; k-- > i;) refitNode(tr, k);
-    return last + 1;
   }
 
+  // The box of a leaf's boxes or of an inner node's two children.
   static void refitNode(FlatTree& tr, std::uint32_t i) {
     constexpr float kBig = 3.0e38f;
-    {
-      FlatNode& node = tr.nodes[i];
-      float lower[3] = {kBig, kBig, kBig}, upper[3] = {-kBig, -kBig, -kBig};
-      const auto add = [&](const float(&lo)[3], const float(&hi)[3]) {
-        for (int k = 0; k < 3; ++k) lower[k] = std::min(lower[k], lo[k]);
-        for (int k = 0; k < 3; ++k) upper[k] = std::max(upper[k], hi[k]);
-      };
-      if (node.count > 0) {
-        for (std::uint32_t k = node.link; k < node.link + node.count; ++k) {
-          const PrimitiveBox& box = tr.leafBox[k];
-          for (int a = 0; a < 3; ++a) lower[a] = std::min(lower[a], box.lower[a]);
-          for (int a = 0; a < 3; ++a) upper[a] = std::max(upper[a], box.upper[a]);
-        }
-      } else {
-        add(tr.nodes[i + 1].lower, tr.nodes[i + 1].upper);
-        add(tr.nodes[node.link].lower, tr.nodes[node.link].upper);
-      }
-      for (int k = 0; k < 3; ++k) node.lower[k] = lower[k], node.upper[k] = upper[k];
+    FlatNode& node = tr.nodes[i];
+    float lower[3] = {kBig, kBig, kBig}, upper[3] = {-kBig, -kBig, -kBig};
+    const auto add = [&](const auto& box) {
+      for (int k = 0; k < 3; ++k) lower[k] = std::min(lower[k], box.lower[k]);
+      for (int k = 0; k < 3; ++k) upper[k] = std::max(upper[k], box.upper[k]);
+    };
+    if (node.count > 0) {
+      for (std::uint32_t k = node.link; k < node.link + node.count; ++k) add(tr.leafBox[k]);
+    } else {
+      add(tr.nodes[i + 1]);
+      add(tr.nodes[node.link]);
     }
+    for (int k = 0; k < 3; ++k) node.lower[k] = lower[k], node.upper[k] = upper[k];
   }
   static constexpr int kRefitTaskDepth = 4;
 };
@@ -270,6 +265,15 @@ inline std::uint32_t firstChild(std::uint32_t i) {
   return i + 1;
 }
 
+// Which of two nodes a dual traversal splits: the one that is not a leaf, the larger if neither
+// is (true: the first).
+inline bool splitFirst(const FlatNode& a, const FlatNode& b) {
+  const auto extent = [](const FlatNode& n) {
+    return (n.upper[0] - n.lower[0]) + (n.upper[1] - n.lower[1]) + (n.upper[2] - n.lower[2]);
+  };
+  return b.count > 0 || (a.count == 0 && extent(a) >= extent(b));
+}
+
 // Every pair of a leaf of `a` and a leaf of `b` under nodes i and j whose boxes overlap: the
 // larger node is split until both are leaves. `self`: a and b are one tree, and i and j are
 // disjoint subtrees of it (each pair is then met once); pairs are reported as (lower, higher).
@@ -277,7 +281,7 @@ void collideNodes(const FlatTree& a, std::uint32_t i, const FlatTree& b, std::ui
                   PairBatch& out) {
   const FlatNode& ni = a.nodes[i];
   const FlatNode& nj = b.nodes[j];
-  if (!nodesOverlap(ni, nj)) return;
+  if (!boxesOverlap(ni, nj)) return;
   if (ni.count > 0 && nj.count > 0) {
     for (std::uint32_t p = ni.link; p < ni.link + ni.count; ++p)
       for (std::uint32_t q = nj.link; q < nj.link + nj.count; ++q) {
@@ -290,11 +294,7 @@ void collideNodes(const FlatTree& a, std::uint32_t i, const FlatTree& b, std::ui
       }
     return;
   }
-  // Split the node that is not a leaf, the one with the larger box if both are not.
-  const auto extent = [](const FlatNode& n) {
-    return (n.upper[0] - n.lower[0]) + (n.upper[1] - n.lower[1]) + (n.upper[2] - n.lower[2]);
-  };
-  if (nj.count > 0 || (ni.count == 0 && extent(ni) >= extent(nj))) {
+  if (splitFirst(ni, nj)) {
     collideNodes(a, firstChild(i), b, j, self, out);
     collideNodes(a, ni.link, b, j, self, out);
   } else {
@@ -328,17 +328,14 @@ void collideNodesParallel(const FlatTree& a, std::uint32_t i, const FlatTree& b,
                           bool self, PrimitiveBvh::PairVisitor visit, void* context, int depth) {
   const FlatNode& ni = a.nodes[i];
   const FlatNode& nj = b.nodes[j];
-  if (!nodesOverlap(ni, nj)) return;
+  if (!boxesOverlap(ni, nj)) return;
   if (depth >= kTaskDepth || (ni.count > 0 && nj.count > 0)) {
     PairBatch batch{visit, context};
     collideNodes(a, i, b, j, self, batch);
     batch.flush();
     return;
   }
-  const auto extent = [](const FlatNode& n) {
-    return (n.upper[0] - n.lower[0]) + (n.upper[1] - n.lower[1]) + (n.upper[2] - n.lower[2]);
-  };
-  if (nj.count > 0 || (ni.count == 0 && extent(ni) >= extent(nj))) {
+  if (splitFirst(ni, nj)) {
     tbb::parallel_invoke(
         [&] { collideNodesParallel(a, firstChild(i), b, j, self, visit, context, depth + 1); },
         [&] { collideNodesParallel(a, ni.link, b, j, self, visit, context, depth + 1); });
@@ -409,7 +406,7 @@ void PrimitiveBvh::forEachOverlap(BvhTree tree, const PrimitiveBox& query, Visit
   while (top > 0) {
     const std::uint32_t i = stack[--top];
     const FlatNode& node = tr.nodes[i];
-    if (!nodeOverlapsBox(node, query)) continue;
+    if (!boxesOverlap(node, query)) continue;
     if (node.count > 0) {
       for (std::uint32_t k = node.link; k < node.link + node.count; ++k)
         if (boxesOverlap(tr.leafBox[k], query)) visit(context, tr.leafPrimitive[k]);

@@ -175,6 +175,15 @@ double boxDistance(const PairView& v, const Vec3d* X) {
 // is a vertex or edge its triangle does not own; an edge–edge pair whose closest point is an end
 // of one edge, or a point–edge pair, where the point's vertex–face pairs with the edge's
 // triangles hold it.
+// Whether a point of object `pointObject` meets `edge` through the edge's triangles (vertex–face
+// pairs): the object collides with its vertices and the edge belongs to a triangle.
+bool heldByFaces(const CollisionPrimitives& prims, std::uint32_t pointObject, Index edge) {
+  return pointObject < prims.objectFlags.size() &&
+         (prims.objectFlags[pointObject] & kCollideVertices) != 0 &&
+         edge < prims.edgeTriangle.size() &&
+         prims.edgeTriangle[edge] != CollisionPrimitives::kNoTriangle;
+}
+
 bool duplicateFeature(const PairView& v, const std::array<double, 4>& c,
                       const CollisionPrimitives& prims) {
   if (v.kind == PairKind::VertexFace) {
@@ -192,17 +201,12 @@ bool duplicateFeature(const PairView& v, const std::array<double, 4>& c,
     }
     return false;
   }
-  const auto heldByFaces = [&](std::uint32_t pointObject, Index edge) {
-    return pointObject < prims.objectFlags.size() &&
-           (prims.objectFlags[pointObject] & kCollideVertices) != 0 &&
-           edge < prims.edgeTriangle.size() &&
-           prims.edgeTriangle[edge] != CollisionPrimitives::kNoTriangle;
-  };
   // An isolated point meets an edge of a mesh through that edge's triangles.
-  if (v.kind == PairKind::VertexEdge) return heldByFaces(v.objectA, v.second);
+  if (v.kind == PairKind::VertexEdge) return heldByFaces(prims, v.objectA, v.second);
   if (v.kind != PairKind::EdgeEdge) return false;
   const bool endA = c[0] == 0 || c[1] == 0, endB = c[2] == 0 || c[3] == 0;
-  return (endA && heldByFaces(v.objectA, v.second)) || (endB && heldByFaces(v.objectB, v.first));
+  return (endA && heldByFaces(prims, v.objectA, v.second)) ||
+         (endB && heldByFaces(prims, v.objectB, v.first));
 }
 
 // Makes the contact of candidate pair `v` if it may come within reach; false if it cannot.
@@ -391,7 +395,9 @@ struct LaneFilter {
     };
     if (bound > double(v.radius) + double(kPrimitiveContactMargin) + kBoundTolerance)
       return settled();
-    if (v.kind != PairKind::EdgeEdge || !heldByFacesBothWays(v, prims)) return false;
+    if (v.kind != PairKind::EdgeEdge || !heldByFaces(prims, v.objectA, v.second) ||
+        !heldByFaces(prims, v.objectB, v.first))
+      return false;
     // makeContact's two early duplicates: at the end where no impact is possible, at the
     // start where the pair starts within its contact distance. The lanes' closest points are
     // at an end of an edge there, and each side's vertices meet the other edge's triangles.
@@ -404,18 +410,6 @@ struct LaneFilter {
         b.startFeature[lane] == float(kEdgeEnds))
       return settled();
     return false;
-  }
-
-  // Whether an edge–edge pair's contact at an end of either edge is held by vertex–face pairs
-  // (duplicateFeature's condition for both ends).
-  static bool heldByFacesBothWays(const PairView& v, const CollisionPrimitives& prims) {
-    const auto held = [&](std::uint32_t object, Index edge) {
-      return object < prims.objectFlags.size() &&
-             (prims.objectFlags[object] & kCollideVertices) != 0 &&
-             edge < prims.edgeTriangle.size() &&
-             prims.edgeTriangle[edge] != CollisionPrimitives::kNoTriangle;
-    };
-    return held(v.objectA, v.second) && held(v.objectB, v.first);
   }
 };
 
