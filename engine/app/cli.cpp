@@ -39,6 +39,7 @@ const char* kUsage =
     "                              [--solver gauss-seidel|jacobi|colored-gs|multigrid]\n"
     "                              [--iterations K] [--out DIR] [--stats FILE.json]\n"
     "                              [--render FILE.png] [--quiet] [--max-kinematic-travel M]\n"
+    "                              [--max-impact-travel M]\n"
     "       nucleon bench SCENE|NAME ... [--threads 1,2,..] [--solver a,b] [--iterations K]\n"
     "                              [--steps N] [--warmup W] [--repeats R] [--csv FILE]\n"
     "                              [--lanes avx2,avx512]\n"
@@ -63,6 +64,10 @@ const char* kRunHelp =
     "                    go in one substep before a step takes more substeps (0: never;\n"
     "                    default: 3/4 of the smallest contact distance between a collider or\n"
     "                    pinned object and a moving object)\n"
+    "  --max-impact-travel M\n"
+    "                    the farthest (m) the median free particle of an object that may\n"
+    "                    strike a collider may go in one substep before a step takes more\n"
+    "                    substeps (0: never; default: 1.5 times its median edge length)\n"
     "Flags override the scene file, which overrides the defaults. Bad input: exit code 2.\n";
 
 // An edge this many times its rest length (or longer) in any frame makes a run not clean: the
@@ -99,6 +104,7 @@ struct RunOptions {
   std::string scene;
   std::optional<int> frames, substeps, threads, iterations;
   std::optional<double> maxKinematicTravel;
+  std::optional<double> maxImpactTravel;
   std::optional<std::string> solver;
   std::string outDir, statsFile, renderFile;
   bool quiet = false;
@@ -132,6 +138,8 @@ RunOptions parseRun(const std::vector<std::string>& args) {
       o.quiet = true;
     else if (a == "--max-kinematic-travel")
       o.maxKinematicTravel = parseNumber(a, value(), 0, 1000);
+    else if (a == "--max-impact-travel")
+      o.maxImpactTravel = parseNumber(a, value(), 0, 1000);
     else if (!a.empty() && a[0] == '-')
       throw UsageError("unknown option '" + a + "'");
     else if (o.scene.empty())
@@ -193,6 +201,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
   if (o.substeps) scene.solver.substeps = *o.substeps;
   if (o.maxKinematicTravel)
     scene.solver.maxKinematicTravel = static_cast<Real>(*o.maxKinematicTravel);
+  if (o.maxImpactTravel) scene.solver.maxImpactTravel = static_cast<Real>(*o.maxImpactTravel);
   if (o.threads) scene.threads = *o.threads;
   if (o.iterations) {
     scene.solver.iterations = *o.iterations;
@@ -360,6 +369,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
         {"impact_zone_turns_dropped", c.impactZoneTurnsDropped},
         {"carry_relaxations", c.carryRelaxations},
         {"raised_substep_steps", c.raisedSubstepSteps},
+        {"impact_raised_steps", c.impactRaisedSteps},
         {"most_substeps", c.mostSubsteps},
         {"capped_substep_steps", c.cappedSubstepSteps},
         {"unresolved_pairs", c.unresolvedPairs},

@@ -584,7 +584,7 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     const Reader s = top.child("solver");
     s.allowOnly({"type", "iterations", "substeps", "relaxation", "sheet_relaxation",
                  "chebyshev_rho", "sweeps_per_level", "cascade_every", "smoother", "schedule",
-                 "max_kinematic_travel", "max_substeps"});
+                 "max_kinematic_travel", "max_impact_travel", "max_substeps"});
     const std::string type = s.string("type", toString(scene.solver.kind));
     if (!parseSolverKind(type, scene.solver.kind))
       s.fail(s.at("type"), "unknown solver '" + type + "'");
@@ -594,6 +594,8 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     if (s.has("max_kinematic_travel"))
       scene.solver.maxKinematicTravel =
           static_cast<Real>(s.number("max_kinematic_travel", 0, 0, 1000));
+    if (s.has("max_impact_travel"))
+      scene.solver.maxImpactTravel = static_cast<Real>(s.number("max_impact_travel", 0, 0, 1000));
     scene.solver.maxSubsteps = s.integer("max_substeps", scene.solver.maxSubsteps, 0, 10000);
     scene.solver.relaxation =
         static_cast<Real>(s.number("relaxation", scene.solver.relaxation, 0.01, 1.99));

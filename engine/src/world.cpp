@@ -16,6 +16,7 @@
 #include "systems/collision/particle_contacts.h"
 #include "systems/diagnostics/measures.h"
 #include "systems/diagnostics/triangle_intersections.h"
+#include "systems/dynamics/impact_travel.h"
 #include "systems/dynamics/kinematic_motion.h"
 #include "systems/setup/build_collision_primitives.h"
 #include "systems/setup/build_constraints.h"
@@ -468,6 +469,8 @@ void World::setSolver(const SolverSettings& settings) {
           "the multigrid smoother must be gauss-seidel, jacobi or colored-gs");
   require(std::isfinite(settings.maxKinematicTravel) && settings.maxKinematicTravel < 1e9,
           "max_kinematic_travel must be finite (negative: derived from the thicknesses; 0: off)");
+  require(std::isfinite(settings.maxImpactTravel) && settings.maxImpactTravel < 1e9,
+          "max_impact_travel must be finite (negative: derived from the edge lengths; 0: off)");
   require(settings.maxSubsteps >= 0 && settings.maxSubsteps <= 10000,
           "max_substeps must be in [0, 10000] (0: 8 × substeps, at least 16)");
   impl_->state.solver = settings;
@@ -560,12 +563,25 @@ int substepsOfStep(WorldState& s, double dt) {
   const double limit = settings.maxKinematicTravel < 0
                            ? kKinematicTravelShare * s.kinematicContactDistance
                            : double(settings.maxKinematicTravel);
-  if (!(limit > 0)) return settings.substeps;
   const double travel = std::max(kinematicTravel(s.kinematics, s.particles, s.time, s.time + dt),
                                  constantVelocityTravel(s.objects, s.kinematics, s.particles, dt));
   bool capped = false;
-  const int substeps = substepsForTravel(settings, travel, limit, capped);
+  int substeps = substepsForTravel(settings, travel, limit, capped);
+  // The free particles' travel in units of their limits: at most 1 per substep.
+  bool impactCapped = false;
+  const int forImpact =
+      settings.maxImpactTravel == 0
+          ? settings.substeps
+          : substepsForTravel(settings,
+                              impactTravelRatio(s.objects, s.objectEdgeLength, s.particles,
+                                                s.colliders, double(settings.maxImpactTravel),
+                                                kImpactTravelShare, dt, travel, s.impactScratch),
+                              1.0, impactCapped);
   CollisionReport& report = s.collisionReport;
+  if (forImpact > substeps) {
+    substeps = forImpact, capped = impactCapped;
+    ++report.impactRaisedSteps;
+  }
   report.raisedSubstepSteps += substeps > settings.substeps;
   report.cappedSubstepSteps += capped;
   report.mostSubsteps = std::max<std::uint64_t>(report.mostSubsteps, std::uint64_t(substeps));
@@ -594,6 +610,7 @@ void World::step(double dt) {
       s.hierarchies.objects.clear();
     s.plan = buildSweepPlan(s.solver, s.objects, s.constraints, s.particles);
     s.kinematicContactDistance = smallestKinematicContact(s.primitives, s.objects, s.kinematics);
+    s.objectEdgeLength = medianEdgeLengths(s.objects, s.particles);
     s.topologyDirty = false;
   }
   if (!impl.arena) {

@@ -21,6 +21,7 @@
 #include "components/primitive_contact_pool.h"
 #include "components/sweep_plan.h"
 #include "nucleon/world.h"
+#include "systems/dynamics/impact_travel.h"
 
 namespace nucleon {
 
@@ -58,9 +59,14 @@ struct WorldState {
   // bound on how far an animated particle may travel in one substep derives from it
   // (SolverSettings::maxKinematicTravel).
   double kinematicContactDistance = 0;
-  bool topologyDirty = true;    // incidence, coloring and plan need rebuilding
-  Recoveries recoveries;        // repairs since creation
-  std::uint64_t stepCount = 0;  // steps taken since creation
+  // Per object, its median rest edge length (0: a collider, or no edges), rebuilt with the
+  // derived tables: the default bound on how far a free particle about to strike a collider may
+  // travel in one substep derives from it (SolverSettings::maxImpactTravel).
+  std::vector<double> objectEdgeLength;
+  ImpactTravelScratch impactScratch;  // scratch of the substeps' count (per-step lifetime)
+  bool topologyDirty = true;          // incidence, coloring and plan need rebuilding
+  Recoveries recoveries;              // repairs since creation
+  std::uint64_t stepCount = 0;        // steps taken since creation
   // Simulated seconds since creation, advanced after every substep; animations are functions of
   // it. The substep being run, with its place in time, is the step graph's SubstepContext.
   double time = 0;

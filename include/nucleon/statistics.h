@@ -80,10 +80,12 @@ struct CollisionReport {
   // fallen back to a tree of one leaf: complete, but every pair of its boxes is tested.
   std::uint64_t broadPhaseTreeErrors = 0;
   // Steps that took more substeps than the solver's setting because a kinematic particle (a
-  // moving collider's or an animated pin) moved fast (SolverSettings::maxKinematicTravel), the
-  // most substeps any step took, and the steps that needed more than SolverSettings::maxSubsteps
-  // and took that many.
+  // moving collider's or an animated pin, SolverSettings::maxKinematicTravel) or a free particle
+  // near a collider (SolverSettings::maxImpactTravel) moved fast; of those, the steps the free
+  // particles raised further than the kinematic ones did; the most substeps any step took; and
+  // the steps that needed more than SolverSettings::maxSubsteps and took that many.
   std::uint64_t raisedSubstepSteps = 0;
+  std::uint64_t impactRaisedSteps = 0;
   std::uint64_t mostSubsteps = 0;
   std::uint64_t cappedSubstepSteps = 0;
   std::uint64_t firstCrossingStep = 0;  // 1-based step of the first fail-safe action; 0 if none
