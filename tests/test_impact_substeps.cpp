@@ -10,6 +10,7 @@
 #include "engine/src/world_state.h"
 #include "nucleon/shapes.h"
 #include "sim_test_context.h"
+#include "systems/diagnostics/measures.h"
 #include "systems/dynamics/impact_travel.h"
 
 namespace nucleon {
@@ -145,6 +146,41 @@ TEST(ImpactSubsteps, TheBulkOfTheObjectCountsNotItsFastestParticles) {
     for (std::size_t k = 0; k < fast; ++k) s.particles.v[order[k]] = Vec3(0, -30, 0);
     world.step(kStep);
     EXPECT_EQ(world.profile().substeps, fast == 61 ? 4u : 2u) << fast << " fast particles";
+  }
+}
+
+// After a strike the count is held while the world stays stretched, for at most
+// kImpactHoldSteps steps after the last raise for travel. The sheet of the first test strikes
+// the ground (4 substeps); with an edge at its corner held at 1.5 times its length from the start
+// (both ends pinned), the world stays stretched beyond kImpactHoldStrain: the next
+// kImpactHoldSteps steps hold 4 substeps and the one after takes the setting again. Without the
+// held edge nothing is held.
+TEST(ImpactSubsteps, AStrikeStillStretchedHoldsItsCountForABoundedTime) {
+  for (const bool stretched : {true, false}) {
+    ObjectDef sheet = sheetAt(Real(0.4), Vec3(0, -30, 0));
+    World world = worldWith(sheet);
+    world.setGround(GroundPlane{true, 0, Real(0.005)});
+    WorldState& s = world.impl().state;
+    if (stretched) {
+      // Corner 0 and its neighbour 1 along x, 0.1 m apart, held 0.15 m apart: strain 0.5.
+      s.particles.x[1] = s.particles.x[0] + Vec3(Real(0.15), 0, 0);
+      for (const Index i : {Index{0}, Index{1}})
+        s.particles.v[i] = Vec3::Zero(), s.particles.w[i] = 0;
+    }
+    world.step(kStep);
+    ASSERT_EQ(world.profile().substeps, 4u);
+    std::uint64_t before = world.profile().substeps;
+    for (int k = 0; k < kImpactHoldSteps + 1; ++k) {
+      world.step(kStep);
+      const std::uint64_t taken = world.profile().substeps - before;
+      before = world.profile().substeps;
+      EXPECT_EQ(taken, stretched && k < kImpactHoldSteps ? 4u : 2u)
+          << (stretched ? "stretched" : "relaxed") << ", step " << k + 2 << " strain "
+          << measureStrain(s.constraints.stretch, s.particles.x).max << " hold "
+          << s.impactHold.substeps << " left " << s.impactHold.stepsLeft;
+    }
+    EXPECT_EQ(world.collisionReport().impactHeldSteps,
+              stretched ? std::uint64_t(kImpactHoldSteps) : 0u);
   }
 }
 

@@ -64,8 +64,8 @@ TEST_P(EveryTortureScene, IsCleanInEveryFrame) {
 
 // The cases not clean yet (torture/unsolved/), at their default settings, still never crash,
 // repair, produce NaN or end a frame with a particle inside the ground; what is not solved is
-// theirs to show: overstretched edges (a 128² sheet on a box's corners, a sheet slammed into a
-// wall at 10 m/s) and intersecting triangles (a curtain squeezed between two boxes to less than
+// theirs to show: overstretched edges (a 128² sheet on a box's corners) and intersecting
+// triangles (a curtain squeezed between two boxes to less than
 // its contact distances, from frame 30 on). The float build runs the first 40 frames, the double
 // build 15, the sanitizer build 4 (memory and undefined-behaviour errors only).
 TEST(UnsolvedTortureScenes, NeverCrashRepairOrGoNonFinite) {

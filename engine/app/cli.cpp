@@ -370,6 +370,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
         {"carry_relaxations", c.carryRelaxations},
         {"raised_substep_steps", c.raisedSubstepSteps},
         {"impact_raised_steps", c.impactRaisedSteps},
+        {"impact_held_steps", c.impactHeldSteps},
         {"most_substeps", c.mostSubsteps},
         {"capped_substep_steps", c.cappedSubstepSteps},
         {"unresolved_pairs", c.unresolvedPairs},

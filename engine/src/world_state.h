@@ -27,6 +27,12 @@ namespace nucleon {
 
 class StepGraph;
 
+struct ImpactHold {
+  int substeps = 0;
+  int stepsLeft = 0;
+  bool travelRaised = false;
+};
+
 struct WorldState {
   ParticlePool particles;
   ConstraintPools constraints;
@@ -64,9 +70,13 @@ struct WorldState {
   // travel in one substep derives from it (SolverSettings::maxImpactTravel).
   std::vector<double> objectEdgeLength;
   ImpactTravelScratch impactScratch;  // scratch of the substeps' count (per-step lifetime)
-  bool topologyDirty = true;          // incidence, coloring and plan need rebuilding
-  Recoveries recoveries;              // repairs since creation
-  std::uint64_t stepCount = 0;        // steps taken since creation
+  // The impact rule's count carried to the next step (holdImpactSubsteps in world.cpp): the
+  // count to hold (0: none), the steps a hold may still last, and whether the last step was
+  // raised for its particles' travel (which renews them).
+  ImpactHold impactHold;
+  bool topologyDirty = true;    // incidence, coloring and plan need rebuilding
+  Recoveries recoveries;        // repairs since creation
+  std::uint64_t stepCount = 0;  // steps taken since creation
   // Simulated seconds since creation, advanced after every substep; animations are functions of
   // it. The substep being run, with its place in time, is the step graph's SubstepContext.
   double time = 0;

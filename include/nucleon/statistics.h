@@ -86,6 +86,9 @@ struct CollisionReport {
   // the steps that needed more than SolverSettings::maxSubsteps and took that many.
   std::uint64_t raisedSubstepSteps = 0;
   std::uint64_t impactRaisedSteps = 0;
+  // Of those, the steps that held the last step's count while the world was still stretched
+  // after a strike (kImpactHoldStrain).
+  std::uint64_t impactHeldSteps = 0;
   std::uint64_t mostSubsteps = 0;
   std::uint64_t cappedSubstepSteps = 0;
   std::uint64_t firstCrossingStep = 0;  // 1-based step of the first fail-safe action; 0 if none
