@@ -66,8 +66,12 @@ TEST(ImpactSubsteps, AFastSheetNearTheGroundTakesWhatItsTravelNeeds) {
   const WorldState& s = world.impl().state;
   ImpactTravelScratch scratch;
   EXPECT_NEAR(impactTravelRatio(s.objects, medianEdgeLengths(s.objects, s.particles), s.particles,
-                                s.colliders, -1, kImpactTravelShare, kStep, 0, scratch),
+                                s.colliders, -1, kImpactTravelShare, kStep, 0, 0, scratch),
               0.5 / 0.15, 1e-4);
+  // Below the caller's floor a ratio is not computed: the floor comes back.
+  EXPECT_EQ(impactTravelRatio(s.objects, medianEdgeLengths(s.objects, s.particles), s.particles,
+                              s.colliders, -1, kImpactTravelShare, kStep, 0, 5, scratch),
+            5.0);
   world.step(kStep);
   EXPECT_EQ(world.profile().substeps, 4u);
   EXPECT_EQ(world.collisionReport().raisedSubstepSteps, 1u);
@@ -193,7 +197,7 @@ TEST(ImpactSubsteps, NonFiniteVelocitiesRaiseNothing) {
   s.particles.v[4] = Vec3::Constant(std::numeric_limits<Real>::infinity());
   ImpactTravelScratch scratch;
   EXPECT_EQ(impactTravelRatio(s.objects, s.objectEdgeLength, s.particles, s.colliders, -1,
-                              kImpactTravelShare, kStep, 0, scratch),
+                              kImpactTravelShare, kStep, 0, 0, scratch),
             0.0);
 }
 

@@ -572,11 +572,12 @@ int substepsOfStep(WorldState& s, double dt) {
   const int forImpact =
       settings.maxImpactTravel == 0
           ? settings.substeps
-          : substepsForTravel(settings,
-                              impactTravelRatio(s.objects, s.objectEdgeLength, s.particles,
-                                                s.colliders, double(settings.maxImpactTravel),
-                                                kImpactTravelShare, dt, travel, s.impactScratch),
-                              1.0, impactCapped);
+          : substepsForTravel(
+                settings,
+                impactTravelRatio(s.objects, s.objectEdgeLength, s.particles, s.colliders,
+                                  double(settings.maxImpactTravel), kImpactTravelShare, dt, travel,
+                                  double(settings.substeps), s.impactScratch),
+                1.0, impactCapped);
   CollisionReport& report = s.collisionReport;
   // A strike's raised count is held while the world is still stretched after it
   // (ImpactHold; holdImpactSubsteps below): its crumple goes on folding after the bulk of the
@@ -590,7 +591,7 @@ int substepsOfStep(WorldState& s, double dt) {
     ++report.impactRaisedSteps;
     report.impactHeldSteps += held;
   }
-  hold.substeps = hold.travelRaised || held ? substeps : 0;
+  hold.substeps = hold.travelRaised || held ? wanted : 0;
   report.raisedSubstepSteps += substeps > settings.substeps;
   report.cappedSubstepSteps += capped;
   report.mostSubsteps = std::max<std::uint64_t>(report.mostSubsteps, std::uint64_t(substeps));
@@ -761,29 +762,18 @@ std::vector<std::string> World::warnings() const {
     if (o.kind == ObjectKind::Collider)
       thickestCollider = std::max(thickestCollider, o.material.thickness);
   std::vector<std::string> lines;
-  for (const ObjectRecord& o : s.objects) {
+  const std::vector<double> medianEdge = medianEdgeLengths(s.objects, s.particles);
+  for (std::size_t index = 0; index < s.objects.size(); ++index) {
+    const ObjectRecord& o = s.objects[index];
     if (o.kind != ObjectKind::Cloth || o.surface.empty()) continue;
     const Real r = o.material.thickness;
     const Real contact = std::max(o.material.selfCollision ? 2 * r : Real(0),
                                   thickestCollider > 0 ? r + thickestCollider : Real(0));
     if (!(contact > 0)) continue;
-    // The median of the triangles' edge lengths: a grid's diagonals and one degenerate edge do
-    // not move it.
-    std::vector<double> lengths;
-    lengths.reserve(3 * o.surface.size());
-    for (const auto& t : o.surface)
-      for (int k = 0; k < 3; ++k)
-        lengths.push_back((s.particles.restPosition[o.firstParticle + t[k]] -
-                           s.particles.restPosition[o.firstParticle + t[(k + 1) % 3]])
-                              .cast<double>()
-                              .norm());
-    const auto middle = lengths.begin() + static_cast<std::ptrdiff_t>(lengths.size() / 2);
-    std::nth_element(lengths.begin(), middle, lengths.end());
-    const double medianEdge = *middle;
-    if (!(double(contact) > medianEdge)) continue;
+    if (!(double(contact) > medianEdge[index])) continue;
     std::ostringstream line;
     line << std::setprecision(3) << o.name << ": contact distance " << contact * 1000
-         << " mm exceeds the median edge length " << medianEdge * 1000
+         << " mm exceeds the median edge length " << medianEdge[index] * 1000
          << " mm: over a collider's sharp edges the edges that straddle them stretch (a smaller "
             "thickness or a coarser mesh avoids it)";
     lines.push_back(line.str());

@@ -37,10 +37,11 @@ std::vector<double> medianEdgeLengths(const std::vector<ObjectRecord>& objects,
 // collider moves in the step) of a plane, a sphere or the box of a mesh collider's vertices.
 // The median, because the stretch comes from the bulk of the object going on while a collider
 // stops part of it (a sheet falling onto a post at 8 m/s); a free fall with nothing near raises
-// nothing. Non-finite velocities count as no travel.
+// nothing. Non-finite velocities count as no travel. Ratios at or below `floor` (the caller's
+// substeps: they raise nothing) are not computed: the result is then `floor`.
 double impactTravelRatio(const std::vector<ObjectRecord>& objects,
                          std::span<const double> edgeLength, const ParticlePool& particles,
                          const ColliderPool& colliders, double fixedLimit, double share, double dt,
-                         double colliderTravel, ImpactTravelScratch& scratch);
+                         double colliderTravel, double floor, ImpactTravelScratch& scratch);
 
 }  // namespace nucleon
