@@ -111,6 +111,36 @@ struct BoxEnds {
 enum class BvhTree : std::uint8_t { Triangles, Edges, IsolatedPoints, Points };
 constexpr std::size_t kBvhTreeCount = 4;
 
+// A primitive's tag, which lets a traversal pass over a pair of subtrees none of whose pairs the
+// broad phase's filters would keep: the primitive's object in the low bits (kMixedObject for a
+// subtree of several objects, or where the exclusions are not tabulated) and kFreeTag if one of
+// its particles can move. Two subtrees of primitives that cannot move, or of two objects that
+// never collide (one object without self-collision), hold no pair.
+constexpr std::uint32_t kFreeTag = 1u << 31;
+constexpr std::uint32_t kMixedObject = kFreeTag - 1;
+constexpr std::uint32_t primitiveTag(std::uint32_t object, bool free) {
+  return (object < kMixedObject ? object : kMixedObject) | (free ? kFreeTag : 0u);
+}
+
+// The object pairs that never collide, as a bit matrix for the traversals' lookups
+// (CollisionPrimitives::excludedPairs is the source). Tabulated up to kMaxObjects objects; beyond
+// that the tags say kMixedObject and only the motion test prunes.
+struct ObjectExclusions {
+  static constexpr std::size_t kMaxObjects = 2048;
+  std::size_t objects = 0;
+  std::vector<std::uint64_t> source;  // the excluded pairs the matrix was made from
+  std::vector<std::uint64_t> bits;    // bit a × objects + b
+  bool excluded(std::uint32_t a, std::uint32_t b) const {
+    if (a >= objects || b >= objects) return false;
+    const std::size_t k = std::size_t{a} * objects + b;
+    return (bits[k >> 6] >> (k & 63)) & 1u;
+  }
+  bool any() const { return !source.empty() && objects > 0; }
+  // Whether object a is in some excluded pair.
+  bool names(std::uint32_t a) const { return a < objects && named[a]; }
+  std::vector<std::uint8_t> named;
+};
+
 class PrimitiveBvh {
  public:
   PrimitiveBvh();
@@ -130,6 +160,16 @@ class PrimitiveBvh {
   // Both in one record, so that a pair test loads one record per primitive.
   std::array<std::vector<BoxEnds>, kBvhTreeCount> boxEnds;
 
+  // Per tree, each primitive's tag (primitiveTag), written with the boxes. A tree whose tags do
+  // not match its boxes in number (none: the broad phase writes none where pruning would not
+  // pay) is traversed without pruning.
+  std::array<std::vector<std::uint32_t>, kBvhTreeCount> tags;
+  // Which object pairs the traversals may pass over (setExclusions).
+  ObjectExclusions exclusions;
+  // Tabulates the excluded object pairs (keys as CollisionPrimitives::excludedPairs) for the
+  // objects they name; allocates only when they change.
+  void setExclusions(const std::vector<std::uint64_t>& excludedPairs);
+
   // Makes every tree bound its current boxes: built from scratch where the number of boxes
   // differs from the one the tree was built for, refit otherwise. Returns whether any tree was
   // built from scratch. A tree without boxes holds no nodes.
@@ -137,21 +177,29 @@ class PrimitiveBvh {
 
   // Calls visit(context, i) once for every primitive i of `tree` whose box overlaps `query`, in no
   // particular order. Safe to call from many threads at once between two commits.
+  // `queryTag` (primitiveTag of the query's primitive) passes over the subtrees that cannot pair
+  // with it, as the pair traversal does; kMixedObject | kFreeTag passes over none.
   using Visitor = void (*)(void* context, Index primitive);
-  void forEachOverlap(BvhTree tree, const PrimitiveBox& query, Visitor visit, void* context) const;
+  void forEachOverlap(BvhTree tree, const PrimitiveBox& query, Visitor visit, void* context,
+                      std::uint32_t queryTag = kMixedObject | kFreeTag) const;
 
   // Calls visit(context, a, b, count) with batches of the pairs (a[k], b[k]) of a primitive of
   // `treeA` and one of `treeB` whose boxes overlap: every such pair and no other, in no
   // particular order and from many threads at once (a dual-tree traversal that splits the larger
   // node, the boxes of two leaves tested pair by pair). A tree met with itself reports each pair
   // once, as a < b: a node's pairs are those within each child and those across the two, so no
-  // pair of subtrees is visited twice. An empty box overlaps nothing. Call between two commits.
+  // pair of subtrees is visited twice. An empty box overlaps nothing. Subtrees whose tags say
+  // that none of their pairs can be kept (both cannot move, or their objects never collide) are
+  // passed over: the pairs left out are only ones the broad phase's filters drop. Call between two
+  // commits.
   using PairVisitor = void (*)(void* context, const Index* a, const Index* b, std::size_t count);
   void forEachOverlappingPair(BvhTree treeA, BvhTree treeB, PairVisitor visit, void* context) const;
 
   std::size_t builtCount(BvhTree tree) const { return builtCount_[static_cast<std::size_t>(tree)]; }
   // Trees built from scratch and trees refit, over the component's lifetime.
   std::size_t builds() const { return builds_; }
+  // Pairs of subtrees (or a subtree and a query) the traversals passed over by their tags.
+  std::size_t passedOver() const;
   std::size_t refits() const { return refits_; }
   // Errors Embree reported to the device's error callback, and builds that failed (none in a
   // healthy run). A failed build leaves its tree one leaf of every box: complete but slow. The

@@ -406,6 +406,87 @@ TEST(BroadPhase, IncrementalRedetectionCoversTheGrownMotion) {
   EXPECT_TRUE(pairs.pathStart == before.pathStart && pairs.pathEnd == before.pathEnd);
 }
 
+// `from`'s primitives and particles added to `into` as object `object`, moved by `shift`, every
+// particle fixed (inverse mass 0) if `fixed`.
+void appendObject(Scene& into, const Scene& from, std::uint32_t object, const Vec3& shift,
+                  bool fixed) {
+  const auto base = static_cast<Index>(into.x.size());
+  for (std::size_t i = 0; i < from.x.size(); ++i) {
+    into.x.push_back(from.x[i] + shift);
+    into.p.push_back(from.p[i] + shift);
+    into.w.push_back(fixed ? Real(0) : from.w[i]);
+  }
+  const CollisionPrimitives& c = from.primitives;
+  for (std::size_t t = 0; t < c.triangles(); ++t) {
+    const auto& tri = c.triangleParticles[t];
+    addTriangle(into.primitives, {tri[0] + base, tri[1] + base, tri[2] + base}, c.triangleRadius[t],
+                object);
+  }
+  for (std::size_t e = 0; e < c.edges(); ++e)
+    addEdge(into.primitives, c.edgeParticles[e][0] + base, c.edgeParticles[e][1] + base,
+            c.edgeRadius[e], object);
+  for (std::size_t i = 0; i < c.points(); ++i)
+    addPoint(into.primitives, c.pointParticle[i] + base, c.pointRadius[i], object,
+             c.pointIsolated[i] != 0);
+  into.margin = from.margin;
+}
+
+// Three folded cloths pushed into one another: two without self-collision, the third fixed (a
+// static mesh). The traversals pass over the subtrees of one cloth met with themselves and of the
+// fixed one met with itself, and the pairs are still exactly the brute force's, in a full search
+// and in an incremental re-detection, for one and two threads.
+TEST(BroadPhase, SubtreesThatHoldNoPairArePassedOver) {
+  const Real edge = Real(1) / Real(19);
+  Scene s;
+  appendObject(s, foldedCloth(20, 7), 0, Vec3::Zero(), false);
+  appendObject(s, foldedCloth(20, 8), 1, Vec3(0.3f * edge, 0.4f * edge, 0.2f * edge), false);
+  appendObject(s, foldedCloth(20, 9), 2, Vec3(-0.2f * edge, -0.35f * edge, 0.1f * edge), true);
+  s.primitives.excludedPairs = {CollisionPrimitives::pairKey(0, 0),
+                                CollisionPrimitives::pairKey(1, 1)};
+  std::array<CandidatePairs, 2> found;
+  for (int threads : {1, 2}) {
+    CandidatePairs& pairs = found[static_cast<std::size_t>(threads - 1)];
+    PrimitiveBvh bvh;
+    tbb::task_arena(threads).execute([&] { s.embree(pairs, bvh); });
+    CandidatePairs reference;
+    s.bruteForce(reference);
+    expectSamePairs(pairs, reference);
+    expectPairRules(s, pairs);
+    const std::size_t passedInSearch = bvh.passedOver();
+    EXPECT_GT(passedInSearch, 0u);
+    // Every pair joins two objects: each of the three meets the others.
+    std::set<std::pair<std::uint32_t, std::uint32_t>> objectPairs;
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+      const std::uint32_t a = objectOf(s.primitives, pairs.kind[k], true, pairs.first[k]),
+                          b = objectOf(s.primitives, pairs.kind[k], false, pairs.second[k]);
+      ASSERT_NE(a, b);
+      objectPairs.insert({std::min(a, b), std::max(a, b)});
+    }
+    EXPECT_EQ(objectPairs.size(), 3u);
+
+    // Some particles of the free cloths pushed off their course: the re-detection's queries pass
+    // over the subtrees their primitives cannot pair with.
+    const Real slack = boundSlack(s.primitives, s.margin);
+    setMotionBounds(pairs, s.x, s.p);
+    growParticleBounds(pairs, slack);
+    std::vector<Vec3> moved = s.p;
+    for (std::size_t i = 0; i < moved.size(); i += 29)
+      if (s.w[i] != 0) moved[i] += Vec3(0.5f * edge, 2 * edge, -0.5f * edge);
+    bool extended = false;
+    tbb::task_arena(threads).execute([&] {
+      extended =
+          extendCandidatePairs(pairs, bvh, s.primitives, moved, s.x, moved, s.w, s.margin, slack);
+    });
+    ASSERT_TRUE(extended);
+    EXPECT_GT(bvh.passedOver(), passedInSearch);
+    findCandidatePairsBruteForce(reference, s.primitives, pairs.pathStart, pairs.pathEnd, s.w,
+                                 s.margin, pairs.pathReach);
+    expectSamePairs(pairs, reference);
+    expectPairRules(s, pairs);
+  }
+  expectSamePairs(found[0], found[1]);
+}
+
 TEST(BroadPhase, NoPairSharesAParticle) {
   // Every cloth vertex is within reach of its own triangles and edges: all of those are dropped.
   const Scene s = foldedCloth(12, 9);

@@ -152,6 +152,45 @@ std::size_t computeBoxes(PrimitiveBvh& bvh, BvhTree tree, std::size_t count,
       std::plus<>());
 }
 
+// Each tree primitive's tag (components/primitive_bvh.h): its object, and whether one of its
+// particles can move; and the excluded object pairs tabulated, so that the traversals pass over
+// subtrees that hold no pair the filters below would keep. Called before each commit.
+constexpr std::size_t kPrunableShare = 16;
+void computeTags(PrimitiveBvh& bvh, const CollisionPrimitives& primitives,
+                 std::span<const Real> w) {
+  bvh.setExclusions(primitives.excludedPairs);
+  // Where few points are fixed or of an object named in an exclusion (pins, a small collider
+  // mesh that does not collide with itself), passing over subtrees would save less than the tag
+  // lookups cost: no tags, and the traversals prune nothing.
+  std::size_t prunable = 0;
+  for (std::size_t i = 0; i < primitives.points(); ++i)
+    prunable +=
+        w[primitives.pointParticle[i]] == 0 || bvh.exclusions.names(primitives.pointObject[i]);
+  if (prunable * kPrunableShare < primitives.points()) {
+    for (std::vector<std::uint32_t>& tags : bvh.tags) tags.clear();
+    return;
+  }
+  const auto tagTree = [&](std::size_t tree, const std::vector<std::uint32_t>& object,
+                           auto particlesOf, const Index* map) {
+    std::vector<std::uint32_t>& tags = bvh.tags[tree];
+    tags.resize(bvh.boxes[tree].size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tags.size(), kBoxGrain),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t k = r.begin(); k != r.end(); ++k) {
+                          const std::size_t i = map ? map[k] : k;
+                          bool free = false;
+                          for (const Index particle : particlesOf(primitives, i))
+                            free |= w[particle] != 0;
+                          tags[k] = primitiveTag(object[i], free);
+                        }
+                      });
+  };
+  tagTree(kTriangleTree, primitives.triangleObject, triangleParticles, nullptr);
+  tagTree(kEdgeTree, primitives.edgeObject, edgeParticles, nullptr);
+  tagTree(kPointTree, primitives.pointObject, pointParticles, nullptr);
+  tagTree(kIsolatedTree, primitives.pointObject, pointParticles, bvh.isolatedPoints.data());
+}
+
 // Pair lists per thread: one for each thread of the arena (by its index in it), and a last one,
 // shared under a lock, for a thread outside the arena (a caller that runs a traversal on threads
 // of its own).
@@ -478,6 +517,7 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
 
   // Trees.
   start = Clock::now();
+  computeTags(bvh, primitives, w);
   stats.rebuilt = bvh.commit();
   stats.commitSeconds = secondsSince(start);
 
@@ -920,8 +960,21 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                                   primitives.triangleRadius[t] + margin / 2)));
         }
       });
+  computeTags(bvh, primitives, w);
   bvh.commit();
 
+  // A primitive's tag by list (0 points, 1 edges, 2 triangles), as computeTags gives it.
+  const auto tagOfPrimitive = [&](int list, Index i) {
+    const std::span<const Index> ids = list == 0   ? pointParticles(primitives, i)
+                                       : list == 1 ? edgeParticles(primitives, i)
+                                                   : triangleParticles(primitives, i);
+    bool free = false;
+    for (const Index particle : ids) free |= w[particle] != 0;
+    const std::uint32_t object = list == 0   ? primitives.pointObject[i]
+                                 : list == 1 ? primitives.edgeObject[i]
+                                             : primitives.triangleObject[i];
+    return primitiveTag(object, free);
+  };
   // A primitive's moving box by list (0 points, 1 edges, 2 triangles): stored with its tree, or
   // for a point without one (no triangles), computed.
   const auto movingBoxOfPrimitive = [&](int list, Index i) -> MovingBox {
@@ -994,14 +1047,14 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
                           if (search.queries == &changedPoints && search.queryIsIsolated &&
                               !primitives.pointIsolated[self])
                             continue;
-                          const MovingBox box =
-                              movingBoxOfPrimitive(search.queries == &changedEdges       ? 1
-                                                   : search.queries == &changedTriangles ? 2
-                                                                                         : 0,
-                                                   self);
+                          const int list = search.queries == &changedEdges       ? 1
+                                           : search.queries == &changedTriangles ? 2
+                                                                                 : 0;
+                          const MovingBox box = movingBoxOfPrimitive(list, self);
                           query.self = self;
                           query.selfEnds = {box.start, box.end};
-                          bvh.forEachOverlap(search.tree, box.swept, visitor, &query);
+                          bvh.forEachOverlap(search.tree, box.swept, visitor, &query,
+                                             tagOfPrimitive(list, self));
                         }
                         query.found.append(query.kept.data(), query.keptCount);
                       });

@@ -30,7 +30,9 @@
 // and finds each kind's pairs with one dual-tree traversal (points against triangles, edges
 // against edges, isolated points against edges and against each other), in parallel, every
 // overlapping pair of swept boxes once per traversal (a self-traversal keeps first < second), each
-// then kept if the moving boxes meet. The threads' pairs are then put in order by a counting sort
+// then kept if the moving boxes meet; pairs of subtrees whose tags (components/primitive_bvh.h)
+// say that no pair of theirs would be kept, both fixed or of objects that never collide, are
+// passed over whole. The threads' pairs are then put in order by a counting sort
 // on the first index and a sort of each first index's partners, so the result is the same sorted
 // list for any thread count. (Embree's own rtcCollide over refit user-geometry scenes, which
 // reports every primitive pair of two overlapping leaves and a tree met with itself in both

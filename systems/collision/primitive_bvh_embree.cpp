@@ -65,14 +65,44 @@ struct FlatTree {
   std::vector<FlatNode> nodes;
   std::vector<Index> leafPrimitive;
   std::vector<PrimitiveBox> leafBox;
+  // Per node, the tag of its primitives (combineTags over them), set at each refit; and whether
+  // the primitives had tags (without, the traversals look at none).
+  std::vector<std::uint32_t> nodeTag;
+  bool tagged = false;
   bool built() const { return !nodes.empty(); }
 };
 
+// The tag of a set of primitives from two of its parts' tags: one object if both are of it, free
+// if either is.
+inline std::uint32_t combineTags(std::uint32_t a, std::uint32_t b) {
+  const std::uint32_t objectA = a & kMixedObject, objectB = b & kMixedObject;
+  return (objectA == objectB ? objectA : kMixedObject) | ((a | b) & kFreeTag);
+}
+
+// Whether no pair of a primitive tagged `a` and one tagged `b` can be kept: none can move, or
+// their objects never collide.
+inline bool holdNoPair(std::uint32_t a, std::uint32_t b, const ObjectExclusions& exclusions) {
+  if (!((a | b) & kFreeTag)) return true;
+  const std::uint32_t objectA = a & kMixedObject, objectB = b & kMixedObject;
+  return objectA != kMixedObject && objectB != kMixedObject &&
+         exclusions.excluded(objectA, objectB);
+}
+
 // Pairs reported to the caller's visitor a batch at a time.
 struct PairBatch {
-  PairBatch(PrimitiveBvh::PairVisitor v, void* c) : visit(v), context(c) {}
+  PairBatch(PrimitiveBvh::PairVisitor v, void* c, const ObjectExclusions& e,
+            std::atomic<std::size_t>& p)
+      : visit(v), context(c), exclusions(e), passedOverTotal(p) {}
+  ~PairBatch() {
+    if (passedOver > 0) passedOverTotal += passedOver;
+  }
+  PairBatch(const PairBatch&) = delete;
+  PairBatch& operator=(const PairBatch&) = delete;
   PrimitiveBvh::PairVisitor visit;
   void* context;
+  const ObjectExclusions& exclusions;
+  std::atomic<std::size_t>& passedOverTotal;
+  std::size_t passedOver = 0;
   static constexpr std::size_t kSize = 256;
   Index a[kSize], b[kSize];
   std::size_t count = 0;
@@ -95,6 +125,7 @@ struct PairBatch {
 struct PrimitiveBvh::Embree {
   RTCDevice device = nullptr;
   std::atomic<std::size_t> errors{0};
+  std::atomic<std::size_t> passedOver{0};
   std::array<FlatTree, kBvhTreeCount> tree;
 
   Embree() {
@@ -123,6 +154,7 @@ struct PrimitiveBvh::Embree {
     tree[t].nodes.clear();
     tree[t].leafPrimitive.clear();
     tree[t].leafBox.clear();
+    tree[t].nodeTag.clear();
   }
 
   // The topology from Embree's builder over the boxes as they are now. An empty box is built as
@@ -181,6 +213,7 @@ struct PrimitiveBvh::Embree {
     out.leafPrimitive.resize(count);
     for (std::size_t i = 0; i < count; ++i) out.leafPrimitive[i] = static_cast<Index>(i);
     out.leafBox.resize(count);
+    out.nodeTag.resize(1);
   }
 
   static void flatten(FlatTree& out, const BuildNode* root, std::size_t primitives) {
@@ -207,39 +240,45 @@ struct PrimitiveBvh::Embree {
       stack.push_back({node->child[0], ~std::size_t{0}});
     }
     out.leafBox.resize(out.leafPrimitive.size());
+    out.nodeTag.resize(out.nodes.size());
   }
 
   // Node bounds from the boxes: the leaves' boxes copied in leaf order, then every node as the box
   // of its children (an empty box adds nothing: its lower corner is above every upper one), the
   // subtrees of the top levels in parallel and each of theirs from its last node to its first
   // (children follow their parents in depth-first order).
-  void refit(std::size_t t, const std::vector<PrimitiveBox>& boxes) {
+  // Tags as the node bounds, from the primitives' tags; without a tag per box every node is
+  // tagged kMixedObject | kFreeTag and nothing is passed over.
+  void refit(std::size_t t, const std::vector<PrimitiveBox>& boxes,
+             const std::vector<std::uint32_t>& tags) {
     FlatTree& tr = tree[t];
+    const std::uint32_t* tag = tags.size() == boxes.size() ? tags.data() : nullptr;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tr.leafPrimitive.size(), 4096),
                       [&](const tbb::blocked_range<std::size_t>& r) {
                         for (std::size_t k = r.begin(); k != r.end(); ++k)
                           tr.leafBox[k] = boxes[tr.leafPrimitive[k]];
                       });
-    refitSubtree(tr, 0, 0);
+    refitSubtree(tr, 0, 0, tag);
+    tr.tagged = tag != nullptr;
   }
 
   // The boxes of node i's subtree, children before parents.
-  static void refitSubtree(FlatTree& tr, std::uint32_t i, int depth) {
+  static void refitSubtree(FlatTree& tr, std::uint32_t i, int depth, const std::uint32_t* tag) {
     const FlatNode& top = tr.nodes[i];
     if (top.count == 0 && depth < kRefitTaskDepth) {
-      tbb::parallel_invoke([&] { refitSubtree(tr, i + 1, depth + 1); },
-                           [&] { refitSubtree(tr, top.link, depth + 1); });
-      refitNode(tr, i);
+      tbb::parallel_invoke([&] { refitSubtree(tr, i + 1, depth + 1, tag); },
+                           [&] { refitSubtree(tr, top.link, depth + 1, tag); });
+      refitNode(tr, i, tag);
       return;
     }
     // The subtree's nodes run from i to its last leaf, reached down the second children.
     std::uint32_t last = i;
     while (tr.nodes[last].count == 0) last = tr.nodes[last].link;
-    for (std::uint32_t k = last + 1; k-- > i;) refitNode(tr, k);
+    for (std::uint32_t k = last + 1; k-- > i;) refitNode(tr, k, tag);
   }
 
-  // The box of a leaf's boxes or of an inner node's two children.
-  static void refitNode(FlatTree& tr, std::uint32_t i) {
+  // The box of a leaf's boxes or of an inner node's two children, and its tag.
+  static void refitNode(FlatTree& tr, std::uint32_t i, const std::uint32_t* tag) {
     constexpr float kBig = 3.0e38f;
     FlatNode& node = tr.nodes[i];
     float lower[3] = {kBig, kBig, kBig}, upper[3] = {-kBig, -kBig, -kBig};
@@ -247,13 +286,21 @@ struct PrimitiveBvh::Embree {
       for (int k = 0; k < 3; ++k) lower[k] = std::min(lower[k], box.lower[k]);
       for (int k = 0; k < 3; ++k) upper[k] = std::max(upper[k], box.upper[k]);
     };
+    std::uint32_t nodeTag = kMixedObject | kFreeTag;
     if (node.count > 0) {
       for (std::uint32_t k = node.link; k < node.link + node.count; ++k) add(tr.leafBox[k]);
+      if (tag) {
+        nodeTag = tag[tr.leafPrimitive[node.link]];
+        for (std::uint32_t k = node.link + 1; k < node.link + node.count; ++k)
+          nodeTag = combineTags(nodeTag, tag[tr.leafPrimitive[k]]);
+      }
     } else {
       add(tr.nodes[i + 1]);
       add(tr.nodes[node.link]);
+      nodeTag = combineTags(tr.nodeTag[i + 1], tr.nodeTag[node.link]);
     }
     for (int k = 0; k < 3; ++k) node.lower[k] = lower[k], node.upper[k] = upper[k];
+    tr.nodeTag[i] = nodeTag;
   }
   static constexpr int kRefitTaskDepth = 4;
 };
@@ -277,11 +324,18 @@ inline bool splitFirst(const FlatNode& a, const FlatNode& b) {
 // Every pair of a leaf of `a` and a leaf of `b` under nodes i and j whose boxes overlap: the
 // larger node is split until both are leaves. `self`: a and b are one tree, and i and j are
 // disjoint subtrees of it (each pair is then met once); pairs are reported as (lower, higher).
+// kPrune: pass over pairs of subtrees whose tags hold no pair (holdNoPair).
+template <bool kPrune>
 void collideNodes(const FlatTree& a, std::uint32_t i, const FlatTree& b, std::uint32_t j, bool self,
                   PairBatch& out) {
   const FlatNode& ni = a.nodes[i];
   const FlatNode& nj = b.nodes[j];
   if (!boxesOverlap(ni, nj)) return;
+  if constexpr (kPrune)
+    if (holdNoPair(a.nodeTag[i], b.nodeTag[j], out.exclusions)) {
+      ++out.passedOver;
+      return;
+    }
   if (ni.count > 0 && nj.count > 0) {
     for (std::uint32_t p = ni.link; p < ni.link + ni.count; ++p)
       for (std::uint32_t q = nj.link; q < nj.link + nj.count; ++q) {
@@ -295,17 +349,23 @@ void collideNodes(const FlatTree& a, std::uint32_t i, const FlatTree& b, std::ui
     return;
   }
   if (splitFirst(ni, nj)) {
-    collideNodes(a, firstChild(i), b, j, self, out);
-    collideNodes(a, ni.link, b, j, self, out);
+    collideNodes<kPrune>(a, firstChild(i), b, j, self, out);
+    collideNodes<kPrune>(a, ni.link, b, j, self, out);
   } else {
-    collideNodes(a, i, b, firstChild(j), self, out);
-    collideNodes(a, i, b, nj.link, self, out);
+    collideNodes<kPrune>(a, i, b, firstChild(j), self, out);
+    collideNodes<kPrune>(a, i, b, nj.link, self, out);
   }
 }
 
 // Every pair of primitives under node i of one tree whose boxes overlap, once each.
+template <bool kPrune>
 void collideWithin(const FlatTree& t, std::uint32_t i, PairBatch& out) {
   const FlatNode& node = t.nodes[i];
+  if constexpr (kPrune)
+    if (holdNoPair(t.nodeTag[i], t.nodeTag[i], out.exclusions)) {
+      ++out.passedOver;
+      return;
+    }
   if (node.count > 0) {
     for (std::uint32_t p = node.link; p < node.link + node.count; ++p)
       for (std::uint32_t q = p + 1; q < node.link + node.count; ++q) {
@@ -315,52 +375,72 @@ void collideWithin(const FlatTree& t, std::uint32_t i, PairBatch& out) {
       }
     return;
   }
-  collideWithin(t, firstChild(i), out);
-  collideWithin(t, node.link, out);
-  collideNodes(t, firstChild(i), t, node.link, true, out);
+  collideWithin<kPrune>(t, firstChild(i), out);
+  collideWithin<kPrune>(t, node.link, out);
+  collideNodes<kPrune>(t, firstChild(i), t, node.link, true, out);
 }
 
 // Splits the traversal into tasks for the top `depth` levels, then runs each part on one thread
 // with a batch of its own.
 constexpr int kTaskDepth = 9;
 
+// The traversal's constants, shared by its tasks.
+struct Traversal {
+  PrimitiveBvh::PairVisitor visit;
+  void* context;
+  const ObjectExclusions& exclusions;
+  std::atomic<std::size_t>& passedOver;
+};
+
+template <bool kPrune>
 void collideNodesParallel(const FlatTree& a, std::uint32_t i, const FlatTree& b, std::uint32_t j,
-                          bool self, PrimitiveBvh::PairVisitor visit, void* context, int depth) {
+                          bool self, const Traversal& traversal, int depth) {
   const FlatNode& ni = a.nodes[i];
   const FlatNode& nj = b.nodes[j];
   if (!boxesOverlap(ni, nj)) return;
+  if constexpr (kPrune)
+    if (holdNoPair(a.nodeTag[i], b.nodeTag[j], traversal.exclusions)) {
+      ++traversal.passedOver;
+      return;
+    }
   if (depth >= kTaskDepth || (ni.count > 0 && nj.count > 0)) {
-    PairBatch batch{visit, context};
-    collideNodes(a, i, b, j, self, batch);
+    PairBatch batch{traversal.visit, traversal.context, traversal.exclusions, traversal.passedOver};
+    collideNodes<kPrune>(a, i, b, j, self, batch);
     batch.flush();
     return;
   }
   if (splitFirst(ni, nj)) {
     tbb::parallel_invoke(
-        [&] { collideNodesParallel(a, firstChild(i), b, j, self, visit, context, depth + 1); },
-        [&] { collideNodesParallel(a, ni.link, b, j, self, visit, context, depth + 1); });
+        [&] { collideNodesParallel<kPrune>(a, firstChild(i), b, j, self, traversal, depth + 1); },
+        [&] { collideNodesParallel<kPrune>(a, ni.link, b, j, self, traversal, depth + 1); });
   } else {
     tbb::parallel_invoke(
-        [&] { collideNodesParallel(a, i, b, firstChild(j), self, visit, context, depth + 1); },
-        [&] { collideNodesParallel(a, i, b, nj.link, self, visit, context, depth + 1); });
+        [&] { collideNodesParallel<kPrune>(a, i, b, firstChild(j), self, traversal, depth + 1); },
+        [&] { collideNodesParallel<kPrune>(a, i, b, nj.link, self, traversal, depth + 1); });
   }
 }
 
-void collideWithinParallel(const FlatTree& t, std::uint32_t i, PrimitiveBvh::PairVisitor visit,
-                           void* context, int depth) {
+template <bool kPrune>
+void collideWithinParallel(const FlatTree& t, std::uint32_t i, const Traversal& traversal,
+                           int depth) {
   const FlatNode& node = t.nodes[i];
+  if constexpr (kPrune)
+    if (holdNoPair(t.nodeTag[i], t.nodeTag[i], traversal.exclusions)) {
+      ++traversal.passedOver;
+      return;
+    }
   if (depth >= kTaskDepth || node.count > 0) {
-    PairBatch batch{visit, context};
-    collideWithin(t, i, batch);
+    PairBatch batch{traversal.visit, traversal.context, traversal.exclusions, traversal.passedOver};
+    collideWithin<kPrune>(t, i, batch);
     batch.flush();
     return;
   }
-  tbb::parallel_invoke([&] { collideWithinParallel(t, firstChild(i), visit, context, depth + 1); },
-                       [&] { collideWithinParallel(t, node.link, visit, context, depth + 1); },
-                       [&] {
-                         collideNodesParallel(t, firstChild(i), t, node.link, true, visit, context,
-                                              depth + 1);
-                       });
+  tbb::parallel_invoke(
+      [&] { collideWithinParallel<kPrune>(t, firstChild(i), traversal, depth + 1); },
+      [&] { collideWithinParallel<kPrune>(t, node.link, traversal, depth + 1); },
+      [&] {
+        collideNodesParallel<kPrune>(t, firstChild(i), t, node.link, true, traversal, depth + 1);
+      });
 }
 
 }  // namespace
@@ -390,23 +470,29 @@ bool PrimitiveBvh::commit() {
       ++builds_;
       rebuilt = true;
     }
-    if (embree_->tree[t].built()) embree_->refit(t, treeBoxes);
+    if (embree_->tree[t].built()) embree_->refit(t, treeBoxes, tags[t]);
   }
   return rebuilt;
 }
 
 void PrimitiveBvh::forEachOverlap(BvhTree tree, const PrimitiveBox& query, Visitor visit,
-                                  void* context) const {
+                                  void* context, std::uint32_t queryTag) const {
   const std::size_t t = static_cast<std::size_t>(tree);
   if (!embree_ || !embree_->tree[t].built() || query.isEmpty()) return;
   const FlatTree& tr = embree_->tree[t];
+  const bool prune = tr.tagged;
   std::uint32_t stack[128];
   int top = 0;
   stack[top++] = 0;
+  std::size_t passed = 0;
   while (top > 0) {
     const std::uint32_t i = stack[--top];
     const FlatNode& node = tr.nodes[i];
     if (!boxesOverlap(node, query)) continue;
+    if (prune && holdNoPair(queryTag, tr.nodeTag[i], exclusions)) {
+      ++passed;
+      continue;
+    }
     if (node.count > 0) {
       for (std::uint32_t k = node.link; k < node.link + node.count; ++k)
         if (boxesOverlap(tr.leafBox[k], query)) visit(context, tr.leafPrimitive[k]);
@@ -415,16 +501,51 @@ void PrimitiveBvh::forEachOverlap(BvhTree tree, const PrimitiveBox& query, Visit
     stack[top++] = node.link;
     stack[top++] = firstChild(i);
   }
+  if (passed > 0) embree_->passedOver += passed;
 }
 
 void PrimitiveBvh::forEachOverlappingPair(BvhTree treeA, BvhTree treeB, PairVisitor visit,
                                           void* context) const {
   const std::size_t a = static_cast<std::size_t>(treeA), b = static_cast<std::size_t>(treeB);
   if (!embree_ || !embree_->tree[a].built() || !embree_->tree[b].built()) return;
-  if (a == b)
-    collideWithinParallel(embree_->tree[a], 0, visit, context, 0);
-  else
-    collideNodesParallel(embree_->tree[a], 0, embree_->tree[b], 0, false, visit, context, 0);
+  const FlatTree &first = embree_->tree[a], &second = embree_->tree[b];
+  const Traversal traversal{visit, context, exclusions, embree_->passedOver};
+  // Pruning costs a tag lookup per node pair: only where a tag can say no.
+  const bool prune = first.tagged || second.tagged;
+  if (a == b) {
+    if (prune)
+      collideWithinParallel<true>(first, 0, traversal, 0);
+    else
+      collideWithinParallel<false>(first, 0, traversal, 0);
+  } else if (prune) {
+    collideNodesParallel<true>(first, 0, second, 0, false, traversal, 0);
+  } else {
+    collideNodesParallel<false>(first, 0, second, 0, false, traversal, 0);
+  }
+}
+
+void PrimitiveBvh::setExclusions(const std::vector<std::uint64_t>& excludedPairs) {
+  if (excludedPairs == exclusions.source) return;
+  // Objects beyond the largest one named are excluded from nothing: the matrix stops there.
+  std::size_t objects = 0;
+  for (const std::uint64_t key : excludedPairs)
+    objects = std::max<std::size_t>(objects, std::max(key >> 32, key & 0xffffffffu) + 1);
+  if (objects > ObjectExclusions::kMaxObjects) objects = 0;
+  exclusions.objects = objects;
+  exclusions.source = excludedPairs;
+  exclusions.bits.assign((objects * objects + 63) / 64, 0);
+  exclusions.named.assign(objects, 0);
+  for (const std::uint64_t key : excludedPairs) {
+    const std::size_t low = key >> 32, high = key & 0xffffffffu;
+    if (low >= objects || high >= objects) continue;
+    exclusions.named[low] = exclusions.named[high] = 1;
+    for (const std::size_t k : {low * objects + high, high * objects + low})
+      exclusions.bits[k >> 6] |= std::uint64_t{1} << (k & 63);
+  }
+}
+
+std::size_t PrimitiveBvh::passedOver() const {
+  return embree_ ? embree_->passedOver.load() : 0;
 }
 
 std::size_t PrimitiveBvh::embreeErrors() const {
