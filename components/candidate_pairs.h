@@ -1,7 +1,8 @@
-// Candidate pairs of collision primitives whose swept, thickness-inflated bounds overlap over the
-// motion the broad phase was given (the rest of a step, ARCHITECTURE.md §4): the broad phase's
-// output and the narrow phase's input. Per-step lifetime (refreshed within a step when a particle
-// is predicted to leave its bounds), refilled into storage that keeps its capacity.
+// Candidate pairs of collision primitives whose swept, thickness-inflated bounds overlap, and whose
+// distance may come within reach, over the motion the broad phase was given (the rest of a step,
+// ARCHITECTURE.md §4): the broad phase's output and the narrow phase's input. Per-step lifetime
+// (refreshed within a step when a particle is predicted to leave its bounds), refilled into storage
+// that keeps its capacity.
 //
 // Pairs are stored sorted by (kind, first, second), so the set, and everything computed from it,
 // is the same whatever the thread count. Indices are into the CollisionPrimitives lists:

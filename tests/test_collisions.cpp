@@ -412,8 +412,10 @@ TEST(PrimitiveContacts, CarriedLowerBoundsKeepEveryContact) {
     return Vec3(scale * a, scale * b, scale * c);
   };
   const Vec3 fall(0, -0.01f, 0);
+  // The pairs found over four substeps' motion, as a step's broad phase finds them: many stay out
+  // of reach over the first substeps.
   for (std::size_t i = 0; i < particles.size(); ++i)
-    particles.p[i] = particles.x[i] + 2 * fall + jitter(2);
+    particles.p[i] = particles.x[i] + 4 * fall + jitter(4);
   CandidatePairs pairs;
   PrimitiveBvh bvh;
   findCandidatePairs(pairs, bvh, primitives, particles.x, particles.p, particles.w,
@@ -461,7 +463,7 @@ TEST(PrimitiveContacts, CarriedLowerBoundsKeepEveryContact) {
               : edgeEdgeCcd(X0[0], X0[1], X0[2], X0[3], X1[0], X1[1], X1[2], X1[3], 0.9 * reach);
     ASSERT_FALSE(approach.hit) << "pair " << i << " bound " << carried.lowerBound[i];
   }
-  EXPECT_GT(passedOver, pairs.size() / 4);  // 40% here
+  EXPECT_GT(passedOver, pairs.size() / 8);  // 21% here
   EXPECT_GE(outOfReach, passedOver);        // a pair is passed over only while its bound is
   ASSERT_EQ(carried.size(), measured.size());
   ASSERT_GT(measured.size(), 0u);

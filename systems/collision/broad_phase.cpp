@@ -18,6 +18,8 @@
 #include <tbb/partitioner.h>
 #include <tbb/task_arena.h>
 
+#include "systems/collision/pair_distance_lanes.h"
+
 namespace nucleon {
 namespace {
 
@@ -229,6 +231,9 @@ struct PairFilter {
   std::vector<PrimitiveBvh::StagedPairs>* staging;  // per arena thread, as found.lists
   // The two trees' moving boxes, by tree primitive.
   const BoxEnds *endsA, *endsB;
+  // The particles' straight paths, for the distance filter (ReachLanes).
+  const Vec3 *x, *p;
+  Real margin;
 };
 
 constexpr std::size_t kStagedPairs = 4096;
@@ -306,6 +311,106 @@ template <PairKind kKind>
                                                         objectOf(prims, kKind, false, second));
 }
 
+// The distance filter after the moving boxes. A vertex–face or edge–edge pair whose particles
+// move on straight paths, and whose distance, by the float lanes' bounds less their stated error
+// (pair_distance_lanes.h), stays beyond its reach r_a + r_b + margin over the whole motion, is no
+// pair: like two primitives whose moving boxes never meet, it stays at least that far apart along
+// the paths, so its primitives cannot cross while their particles stay within the slack of their
+// paths (boundSlack), and the narrow phase would find it out of reach at every substep. The boxes
+// are loose around a cloth's diagonal edges and triangles: where the thickness is near the edge
+// length, most neighbours two rings apart overlap in their boxes and are farther apart than their
+// reach.
+bool staysOutOfReach(const PairLaneBounds& b, int lane, double reach) {
+  const double error = double(kPairLaneTolerance) * double(b.extent[lane]);
+  const double start = double(b.startDistance[lane]) - error,
+               end = double(b.endDistance[lane]) - error, motion = double(b.motion[lane]) + error;
+  // Along straight paths the distance is at least max(d0 − t M, d1 − (1 − t) M), whose least
+  // value over the motion is (d0 + d1 − M) / 2 (as the narrow phase's bound). Comparisons with a
+  // NaN are false: such a pair is kept.
+  if (!(start > 0) || !(end > 0)) return false;
+  return std::max(start - motion, (start + end - motion) / 2) > reach;
+}
+
+// Pairs of one kind gathered kPairLanes at a time for staysOutOfReach.
+template <PairKind kKind>
+struct ReachLanes {
+  static_assert(kKind == PairKind::VertexFace || kKind == PairKind::EdgeEdge);
+  PairLanes lanes{};  // unused lanes stay finite
+  PairLaneBounds bounds;
+  std::uint64_t key[kPairLanes];
+  double reach[kPairLanes];
+  int used = 0;
+
+  static std::array<Index, 4> particlesOf(const CollisionPrimitives& prims, Index first,
+                                          Index second) {
+    if constexpr (kKind == PairKind::VertexFace) {
+      const auto& t = prims.triangleParticles[second];
+      return {prims.pointParticle[first], t[0], t[1], t[2]};
+    } else {
+      const auto& e = prims.edgeParticles[first];
+      const auto& f = prims.edgeParticles[second];
+      return {e[0], e[1], f[0], f[1]};
+    }
+  }
+  static Real radiusOf(const CollisionPrimitives& prims, Index first, Index second) {
+    if constexpr (kKind == PairKind::VertexFace)
+      return prims.pointRadius[first] + prims.triangleRadius[second];
+    else
+      return prims.edgeRadius[first] + prims.edgeRadius[second];
+  }
+
+  // Adds pair (first, second), its particles moving from x to p; true when the lanes are full.
+  bool add(const CollisionPrimitives& prims, const Vec3* x, const Vec3* p, Real margin, Index first,
+           Index second) {
+    const std::array<Index, 4> id = particlesOf(prims, first, second);
+    const Vec3 x0 = x[id[0]], p0 = p[id[0]];
+    for (int k = 1; k < 4; ++k) {
+      const Vec3 start = x[id[k]] - x0, end = p[id[k]] - p0;
+      for (int axis = 0; axis < 3; ++axis) {
+        lanes.start[k][axis][used] = static_cast<float>(start[axis]);
+        lanes.end[k][axis][used] = static_cast<float>(end[axis]);
+      }
+    }
+    key[used] = std::uint64_t{first} << 32 | second;
+    reach[used] = double(radiusOf(prims, first, second)) + double(margin);
+    return ++used == kPairLanes;
+  }
+
+  // Calls keep(key) for every pair added that may come within reach, and empties the lanes.
+  template <class Keep>
+  void flush(Keep&& keep) {
+    if (used == 0) return;
+    if constexpr (kKind == PairKind::VertexFace)
+      vertexFaceLaneBounds(lanes, bounds);
+    else
+      edgeEdgeLaneBounds(lanes, bounds);
+    for (int lane = 0; lane < used; ++lane)
+      if (!staysOutOfReach(bounds, lane, reach[lane])) keep(key[lane]);
+    used = 0;
+  }
+};
+
+// Whether pair (first, second) of `kind`, its particles moving on straight paths from x to p,
+// stays out of reach over the motion (ReachLanes, one pair). Vertex–edge and vertex–vertex pairs
+// (isolated points, few) are not filtered.
+bool pairStaysOutOfReach(PairKind kind, const CollisionPrimitives& prims, const Vec3* x,
+                         const Vec3* p, Real margin, Index first, Index second) {
+  bool out = true;
+  const auto keep = [&](std::uint64_t) { out = false; };
+  if (kind == PairKind::VertexFace) {
+    ReachLanes<PairKind::VertexFace> lanes;
+    lanes.add(prims, x, p, margin, first, second);
+    lanes.flush(keep);
+  } else if (kind == PairKind::EdgeEdge) {
+    ReachLanes<PairKind::EdgeEdge> lanes;
+    lanes.add(prims, x, p, margin, first, second);
+    lanes.flush(keep);
+  } else {
+    return false;
+  }
+  return out;
+}
+
 // The filters every pair of overlapping boxes goes through, in the order of their cost; a pair
 // kept is stored as first << 32 | second in the running thread's list.
 template <PairKind kKind>
@@ -318,6 +423,23 @@ void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
   constexpr std::size_t kBatch = 256;
   std::uint64_t kept[kBatch];
   std::size_t keptCount = 0;
+  const auto store = [&](std::uint64_t key) {
+    if (staged) {
+      std::vector<std::uint64_t>& stage = (*f.staging)[static_cast<std::size_t>(slot)].keys;
+      stage.push_back(key);
+      if (stage.size() == kStagedPairs) {
+        std::vector<std::uint64_t>& list = (*f.found.lists)[static_cast<std::size_t>(slot)];
+        list.insert(list.end(), stage.begin(), stage.end());
+        stage.clear();
+      }
+      return;
+    }
+    kept[keptCount++] = key;
+    if (keptCount == kBatch) f.found.append(kept, keptCount), keptCount = 0;
+  };
+  constexpr bool kMeasured = kKind == PairKind::VertexFace || kKind == PairKind::EdgeEdge;
+  using Lanes = ReachLanes<kMeasured ? kKind : PairKind::VertexFace>;
+  Lanes lanes;
   for (std::size_t k = 0; k < count; ++k) {
     Index first = a[k], second = b[k];
     // The IsolatedPoints tree's primitives map to points; they ascend, so first < second holds.
@@ -328,20 +450,13 @@ void keepPairs(void* raw, const Index* a, const Index* b, std::size_t count) {
     // cheaper test first.
     if (!admissibleOf<kKind>(prims, f.w, first, second)) continue;
     if (!meetInMotion(f.endsA[a[k]], f.endsB[b[k]])) continue;
-    const std::uint64_t key = std::uint64_t{first} << 32 | second;
-    if (staged) {
-      std::vector<std::uint64_t>& stage = (*f.staging)[static_cast<std::size_t>(slot)].keys;
-      stage.push_back(key);
-      if (stage.size() == kStagedPairs) {
-        std::vector<std::uint64_t>& list = (*f.found.lists)[static_cast<std::size_t>(slot)];
-        list.insert(list.end(), stage.begin(), stage.end());
-        stage.clear();
-      }
-      continue;
+    if constexpr (kMeasured) {
+      if (lanes.add(prims, f.x, f.p, f.margin, first, second)) lanes.flush(store);
+    } else {
+      store(std::uint64_t{first} << 32 | second);
     }
-    kept[keptCount++] = key;
-    if (keptCount == kBatch) f.found.append(kept, keptCount), keptCount = 0;
   }
+  if constexpr (kMeasured) lanes.flush(store);
   f.found.append(kept, keptCount);
 }
 
@@ -536,7 +651,10 @@ BroadPhaseStats findCandidatePairs(CandidatePairs& out, PrimitiveBvh& bvh,
                     ThreadPairs{&bvh.threadPairs, &overflowLock},
                     &bvh.threadStaging,
                     nullptr,
-                    nullptr};
+                    nullptr,
+                    x.data(),
+                    p.data(),
+                    margin};
   struct Traversal {
     PairKind kind;
     BvhTree a, b;
@@ -799,7 +917,23 @@ struct ExtensionQuery {
   // the two are of one list and the lower index keeps it, else the partner's own query does.
   const std::uint8_t* partnerChanged;
   bool lowerKeeps;
+  // The particles' paths over the whole window, for the distance filter of pairs whose particles
+  // all move on straight paths (no reach).
+  const Vec3 *pathStart, *pathEnd, *pathReach;
+  Real margin;
+  bool selfStraight;  // the query primitive's particles all move on straight paths
 };
+
+// Whether every particle of pair (first, second) of `kind` moves on a straight path (no reach).
+bool straightPaths(PairKind kind, const CollisionPrimitives& prims, const Vec3* reach, Index first,
+                   Index second) {
+  if (!reach) return true;
+  bool straight = true;
+  for (const Index i : particlesOf(prims, kind, true, first)) straight &= reach[i] == Vec3::Zero();
+  for (const Index i : particlesOf(prims, kind, false, second))
+    straight &= reach[i] == Vec3::Zero();
+  return straight;
+}
 
 template <PairKind kKind>
 void keepExtension(void* raw, Index partner) {
@@ -814,6 +948,9 @@ void keepExtension(void* raw, Index partner) {
   }
   if (!admissibleOf<kKind>(*q.primitives, q.w, first, second)) return;
   if (!meetInMotion(q.selfEnds, partnerEnds, q.since)) return;
+  if (q.selfStraight && straightPaths(kKind, *q.primitives, q.pathReach, first, second) &&
+      pairStaysOutOfReach(kKind, *q.primitives, q.pathStart, q.pathEnd, q.margin, first, second))
+    return;
   q.kept[q.keptCount++] = std::uint64_t{first} << 32 | second;
   if (q.keptCount == q.kept.size()) q.found.append(q.kept.data(), q.keptCount), q.keptCount = 0;
 }
@@ -1025,39 +1162,50 @@ bool extendCandidatePairs(CandidatePairs& pairs, PrimitiveBvh& bvh,
         search.keeper == Search::kThisQuery
             ? nullptr
             : bvh.changedPrimitive[search.tree == BvhTree::Edges ? 1 : 0].data();
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), 64),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
-                        const auto tree = static_cast<std::size_t>(search.tree);
-                        ExtensionQuery query{&primitives,
-                                             w.data(),
-                                             bvh.isolatedPoints.data(),
-                                             ThreadPairs{&bvh.threadPairs, &overflowLock},
-                                             {},
-                                             0,
-                                             0,
-                                             search.selfFirst,
-                                             search.tree == BvhTree::IsolatedPoints,
-                                             {PrimitiveBox::empty(), PrimitiveBox::empty()},
-                                             bvh.boxEnds[tree].data(),
-                                             since,
-                                             partnerChanged,
-                                             search.keeper == Search::kLowerIndex};
-                        for (std::size_t k = r.begin(); k != r.end(); ++k) {
-                          const Index self = queries[k];
-                          if (search.queries == &changedPoints && search.queryIsIsolated &&
-                              !primitives.pointIsolated[self])
-                            continue;
-                          const int list = search.queries == &changedEdges       ? 1
-                                           : search.queries == &changedTriangles ? 2
-                                                                                 : 0;
-                          const MovingBox box = movingBoxOfPrimitive(list, self);
-                          query.self = self;
-                          query.selfEnds = {box.start, box.end};
-                          bvh.forEachOverlap(search.tree, box.swept, visitor, &query,
-                                             tagOfPrimitive(list, self));
-                        }
-                        query.found.append(query.kept.data(), query.keptCount);
-                      });
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, queries.size(), 64),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+          const auto tree = static_cast<std::size_t>(search.tree);
+          ExtensionQuery query{&primitives,
+                               w.data(),
+                               bvh.isolatedPoints.data(),
+                               ThreadPairs{&bvh.threadPairs, &overflowLock},
+                               {},
+                               0,
+                               0,
+                               search.selfFirst,
+                               search.tree == BvhTree::IsolatedPoints,
+                               {PrimitiveBox::empty(), PrimitiveBox::empty()},
+                               bvh.boxEnds[tree].data(),
+                               since,
+                               partnerChanged,
+                               search.keeper == Search::kLowerIndex,
+                               pairs.pathStart.data(),
+                               pairs.pathEnd.data(),
+                               pairs.pathReach.data(),
+                               margin,
+                               false};
+          for (std::size_t k = r.begin(); k != r.end(); ++k) {
+            const Index self = queries[k];
+            if (search.queries == &changedPoints && search.queryIsIsolated &&
+                !primitives.pointIsolated[self])
+              continue;
+            const int list = search.queries == &changedEdges       ? 1
+                             : search.queries == &changedTriangles ? 2
+                                                                   : 0;
+            const MovingBox box = movingBoxOfPrimitive(list, self);
+            query.self = self;
+            query.selfEnds = {box.start, box.end};
+            query.selfStraight = true;
+            if (!pairs.pathReach.empty())
+              for (const Index particle : list == 0   ? pointParticles(primitives, self)
+                                          : list == 1 ? edgeParticles(primitives, self)
+                                                      : triangleParticles(primitives, self))
+                query.selfStraight &= pairs.pathReach[particle] == Vec3::Zero();
+            bvh.forEachOverlap(search.tree, box.swept, visitor, &query, tagOfPrimitive(list, self));
+          }
+          query.found.append(query.kept.data(), query.keptCount);
+        });
     std::vector<std::uint64_t>& kindPairs = bvh.newPairs[static_cast<std::size_t>(search.kind)];
     for (const std::vector<std::uint64_t>& found : bvh.threadPairs)
       kindPairs.insert(kindPairs.end(), found.begin(), found.end());
@@ -1207,7 +1355,11 @@ BroadPhaseStats findCandidatePairsBruteForce(CandidatePairs& out,
     return free && !primitives.excluded(objectA, objectB);
   };
   auto add = [&](PairKind kind, std::size_t a, std::size_t b) {
-    out.push_back(kind, static_cast<Index>(a), static_cast<Index>(b));
+    const auto first = static_cast<Index>(a), second = static_cast<Index>(b);
+    if (straightPaths(kind, primitives, reach.empty() ? nullptr : reach.data(), first, second) &&
+        pairStaysOutOfReach(kind, primitives, x.data(), p.data(), margin, first, second))
+      return;
+    out.push_back(kind, first, second);
     ++stats.pairs[static_cast<std::size_t>(kind)];
   };
 

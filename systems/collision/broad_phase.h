@@ -22,8 +22,14 @@
 //   VertexVertex  isolated points against each other
 //
 // less those sharing a particle, joining an excluded object pair, or whose particles all have
-// inverse mass 0. A primitive with a coordinate that is not finite (or beyond ±1e18 m, outside
-// the range Embree accepts) is skipped: it takes part in no pair, and the count is reported.
+// inverse mass 0, and less the vertex–face and edge–edge pairs whose particles all move on straight
+// paths and whose distance, measured in float lanes (pair_distance_lanes.h) less their error,
+// stays beyond r_a + r_b + margin over the whole motion: they stay as far apart as two primitives
+// whose moving boxes never meet. (Boxes are loose around a cloth's diagonal edges and triangles:
+// on cloth_self this drops 58% of the pairs the boxes give, on cloth_drop_sphere 48%, so the
+// narrow phase and the fail-safe visit half as many every substep.) A primitive with a coordinate
+// that is not finite (or beyond ±1e18 m, outside the range Embree accepts) is skipped: it takes
+// part in no pair, and the count is reported.
 //
 // findCandidatePairs keeps the boxes in trees whose topology Embree's builder makes
 // (components/primitive_bvh.h), refit from one call to the next while the primitive counts stay,
