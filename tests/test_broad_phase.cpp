@@ -487,6 +487,98 @@ TEST(BroadPhase, SubtreesThatHoldNoPairArePassedOver) {
   expectSamePairs(found[0], found[1]);
 }
 
+// Two capsules whose boxes overlap almost entirely but which stay far apart (two parallel
+// diagonals) are no pair; moved within reach of each other at the end of the motion, they are.
+TEST(BroadPhase, BoxesThatOverlapWhileThePrimitivesStayApartAreNoPair) {
+  Scene s;
+  s.margin = Real(0.01);
+  const Real radius = Real(0.01);
+  s.x = {Vec3(0, 0, 0), Vec3(1, 1, 0), Vec3(0.6f, 0, 0), Vec3(1, 0.4f, 0)};
+  s.p = s.x;
+  s.w = {1, 1, 1, 1};
+  addEdge(s.primitives, 0, 1, radius, 0);
+  addEdge(s.primitives, 2, 3, radius, 1);
+  for (Index i = 0; i < 4; ++i) addPoint(s.primitives, i, radius, i < 2 ? 0 : 1, false);
+  CandidatePairs pairs, reference;
+  PrimitiveBvh bvh;
+  s.embree(pairs, bvh);
+  s.bruteForce(reference);
+  EXPECT_EQ(pairs.size(), 0u);  // 0.42 apart, reach 0.03
+  expectSamePairs(pairs, reference);
+  // The second edge slides towards the first: at the end 0.02 apart, within reach.
+  const Vec3 toward = Vec3(-0.5f, 0.5f, 0) * (0.6f / 1.41421356f - 0.02f) / 0.70710678f;
+  s.p[2] = s.x[2] + toward;
+  s.p[3] = s.x[3] + toward;
+  s.embree(pairs, bvh);
+  s.bruteForce(reference);
+  ASSERT_EQ(pairs.size(), 1u);
+  EXPECT_EQ(pairs.kind[0], PairKind::EdgeEdge);
+  expectSamePairs(pairs, reference);
+}
+
+// Every vertex–face and edge–edge pair whose exact distance comes within r_a + r_b + margin at
+// some instant of the motion (sampled in double along the straight paths) is a candidate: the
+// distance filter drops only pairs that stay out of reach. And it does drop some: pairs whose
+// swept boxes overlap outnumber the candidates.
+TEST(BroadPhase, PairsThatComeWithinReachAreKept) {
+  for (unsigned seed : {2u, 3u}) {
+    const Scene s = foldedCloth(14, seed);
+    CandidatePairs pairs;
+    PrimitiveBvh bvh;
+    s.embree(pairs, bvh);
+    std::set<std::tuple<PairKind, Index, Index>> set;
+    for (std::size_t k = 0; k < pairs.size(); ++k)
+      set.insert({pairs.kind[k], pairs.first[k], pairs.second[k]});
+    const CollisionPrimitives& c = s.primitives;
+    const auto at = [&](Index i, double t) {
+      return Vec3d(s.x[i].cast<double>() + t * (s.p[i] - s.x[i]).cast<double>());
+    };
+    std::size_t withinReach = 0, boxesOverlap = 0;
+    for (PairKind kind : {PairKind::VertexFace, PairKind::EdgeEdge}) {
+      const bool faces = kind == PairKind::VertexFace;
+      const std::size_t firsts = faces ? c.points() : c.edges();
+      const std::size_t seconds = faces ? c.triangles() : c.edges();
+      for (Index a = 0; a < firsts; ++a)
+        for (Index b = faces ? 0 : a + 1; b < seconds; ++b) {
+          const auto pa = particlesOf(c, kind, true, a), pb = particlesOf(c, kind, false, b);
+          bool shared = false, free = false;
+          for (Index i : pa)
+            for (Index j : pb) shared |= i == j;
+          for (Index i : pa) free |= s.w[i] != 0;
+          for (Index j : pb) free |= s.w[j] != 0;
+          if (shared || !free) continue;
+          const Real radius =
+              faces ? c.pointRadius[a] + c.triangleRadius[b] : c.edgeRadius[a] + c.edgeRadius[b];
+          const double reach = double(radius) + double(s.margin);
+          boxesOverlap += overlaps(sweptBox(pa, s.x, s.p, radius / 2 + s.margin / 2),
+                                   sweptBox(pb, s.x, s.p, radius / 2 + s.margin / 2));
+          double nearest = 1e30;
+          for (int step = 0; step <= 10; ++step) {
+            const double t = step / 10.0;
+            double d;
+            if (faces) {
+              const Vec3d q = at(pa[0], t), u = at(pb[0], t), v = at(pb[1], t), w = at(pb[2], t);
+              const auto l = closestOnTriangle(q, u, v, w);
+              d = (q - (l[0] * u + l[1] * v + l[2] * w)).norm();
+            } else {
+              const Vec3d p1 = at(pa[0], t), q1 = at(pa[1], t), p2 = at(pb[0], t),
+                          q2 = at(pb[1], t);
+              const auto st = closestBetweenSegments(p1, q1, p2, q2);
+              d = ((p1 + st[0] * (q1 - p1)) - (p2 + st[1] * (q2 - p2))).norm();
+            }
+            nearest = std::min(nearest, d);
+          }
+          if (nearest > reach) continue;
+          ++withinReach;
+          ASSERT_TRUE(set.count({kind, a, b})) << "pair " << int(kind) << " " << a << " " << b
+                                               << " comes within " << nearest << " of " << reach;
+        }
+    }
+    EXPECT_GT(withinReach, 1000u);
+    EXPECT_LT(double(pairs.size()), 0.8 * double(boxesOverlap));
+  }
+}
+
 TEST(BroadPhase, NoPairSharesAParticle) {
   // Every cloth vertex is within reach of its own triangles and edges: all of those are dropped.
   const Scene s = foldedCloth(12, 9);
