@@ -316,10 +316,10 @@ template <PairKind kKind>
 // (pair_distance_lanes.h), stays beyond its reach r_a + r_b + margin over the whole motion, is no
 // pair: like two primitives whose moving boxes never meet, it stays at least that far apart along
 // the paths, so its primitives cannot cross while their particles stay within the slack of their
-// paths (boundSlack), and the narrow phase would find it out of reach at every substep. The boxes
-// are loose around a cloth's diagonal edges and triangles: where the thickness is near the edge
-// length, most neighbours two rings apart overlap in their boxes and are farther apart than their
-// reach.
+// paths (boundSlack). Like them, it may come nearer than its reach by what its particles stray
+// from their paths; its contact then waits for the next broad phase. The boxes are loose around a
+// cloth's diagonal edges and triangles: where the thickness is near the edge length, most
+// neighbours two rings apart overlap in their boxes and are farther apart than their reach.
 bool staysOutOfReach(const PairLaneBounds& b, int lane, double reach) {
   const double error = double(kPairLaneTolerance) * double(b.extent[lane]);
   const double start = double(b.startDistance[lane]) - error,
