@@ -100,6 +100,11 @@ struct PrimitiveContactPool {
   std::vector<Real> heldInverseMass;
   std::vector<Mat3d> carryRotation;
   std::vector<Vec3d> carryTranslation;
+  // Per carried particle: its distance, at the substep's start, from the body it is carried with
+  // (the start distance of the pair that set the carry), which weighs a squeeze between two
+  // bodies; and the precedence of a squeezed particle, above every body's.
+  std::vector<double> carryGap;
+  static constexpr std::uint64_t kSqueezedPrecedence = ~std::uint64_t{0};
   // The fail-safe's impact zones (precedence 1): per particle, its parent in the zone forest
   // (kNoZone: in none), the slot of its zone in `zones` when it is a zone's root, and the position
   // the solve gave it (the motion whose momentum its zone keeps); per zone, its sums.

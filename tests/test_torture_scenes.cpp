@@ -58,16 +58,18 @@ TEST_P(EveryTortureScene, IsCleanInEveryFrame) {
   // rest length for a frame or two (bench/results/2core-AMD-EPYC/torture.md): 2.75 times flags a
   // regression well before the threshold.
   EXPECT_LT(failures.at("worst_frame_max_strain").get<double>(), 1.75);
-  // And it settles: the last frame's edges are within 2 times their rest length.
+  // And it settles: the last frame's edges are within 2 times their rest length. (Not in the
+  // sanitizer build, whose half second can end in the middle of an impact.)
+#if !defined(__SANITIZE_ADDRESS__)
   EXPECT_LT(j.at("max_strain").get<double>(), 1.0);
+#endif
 }
 
 // The cases not clean yet (torture/unsolved/), at their default settings, still never crash,
 // repair, produce NaN or end a frame with a particle inside the ground; what is not solved is
-// theirs to show: overstretched edges (a 128² sheet on a box's corners) and intersecting
-// triangles (a curtain squeezed between two boxes to less than
-// its contact distances, from frame 30 on). The float build runs the first 40 frames, the double
-// build 15, the sanitizer build 4 (memory and undefined-behaviour errors only).
+// theirs to show: overstretched edges (a 128² sheet on a box's corners). The float build runs the
+// first 40 frames, the double build 15, the sanitizer build 4 (memory and undefined-behaviour
+// errors only).
 TEST(UnsolvedTortureScenes, NeverCrashRepairOrGoNonFinite) {
   const std::string frames = framesOfThisBuild(40, 15, 4);
   const std::filesystem::path folder =

@@ -364,6 +364,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
         {"crossings_stopped", c.crossings},
         {"stopped_particles", c.stoppedParticles},
         {"carried_particles", c.carriedParticles},
+        {"squeezes", c.squeezes},
         {"impact_zones", c.impactZones},
         {"stopped_impact_zones", c.stoppedImpactZones},
         {"impact_zone_turns_dropped", c.impactZoneTurnsDropped},

@@ -185,6 +185,7 @@ void StepGraph::runStage(int stage) {
       report.crossings += crossing.crossings;
       report.stoppedParticles += crossing.stopped;
       report.carriedParticles += crossing.carried;
+      report.squeezes += crossing.squeezed;
       report.impactZones += crossing.zones;
       report.stoppedImpactZones += crossing.stoppedZones;
       report.impactZoneTurnsDropped += crossing.turnsDropped;

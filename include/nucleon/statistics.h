@@ -64,6 +64,9 @@ struct CollisionReport {
   std::uint64_t crossings = 0;         // crossing pairs the fail-safe stopped
   std::uint64_t stoppedParticles = 0;  // particle positions the fail-safe reset
   std::uint64_t carriedParticles = 0;  // … of them carried by a kinematic body's rigid motion
+  // Squeezes: crossings of a particle carried with one collider body with another body, after
+  // which the fail-safe held it in the gap between the two (primitive_contacts.h).
+  std::uint64_t squeezes = 0;
   // Impact zones the fail-safe moved as rigid bodies keeping their particles' momentum (summed
   // over its passes and substeps; the rest of the reset positions are theirs).
   std::uint64_t impactZones = 0;

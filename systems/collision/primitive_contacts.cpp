@@ -1069,6 +1069,7 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
   contacts.carryPrecedence.assign(particles.size(), 0);
   contacts.carryRotation.resize(particles.size());
   contacts.carryTranslation.resize(particles.size());
+  contacts.carryGap.resize(particles.size());
   contacts.zoneParent.assign(particles.size(), PrimitiveContactPool::kNoZone);
   contacts.zoneSlot.resize(particles.size());
   contacts.failsafeFrom.assign(particles.p.begin(), particles.p.end());
@@ -1152,10 +1153,39 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
       // flipped particles between stopped and carried until the round limit on a box turning
       // under a draped cloth.)
       Carry held;
-      if (freeA != freeB)
+      if (freeA != freeB) {
         held = kinematicCarry(v, !freeA, candidates.kind[i],
                               freeA ? candidates.second[i] : candidates.first[i], primitives,
                               particles);
+        // A squeeze: a free particle carried with one collider body crosses another (two boxes
+        // closing on a cloth, leaving less than its contact distance). Carried with either body it
+        // crosses the other; it is held where it keeps its place in the gap between the two, each
+        // body's motion weighed by the particle's start distance from the other (two faces
+        // closing in parallel keep it between them), and no later crossing moves it again.
+        // Pinned groups of its own object are not bodies of a squeeze.
+        constexpr std::uint64_t kObjects = std::numeric_limits<std::uint32_t>::max();
+        const std::uint64_t freeObject = kObjects - (freeA ? v.objectA : v.objectB);
+        const std::uint64_t body = held.precedence >> 32;
+        for (int k = 0; k < v.count && body != freeObject; ++k) {
+          const Index id = v.id[k];
+          const std::uint64_t carried = contacts.carryPrecedence[id];
+          if (particles.w[id] == 0 || carried <= PrimitiveContactPool::kImpactZonePrecedence ||
+              carried == PrimitiveContactPool::kSqueezedPrecedence)
+            continue;
+          const std::uint64_t other = carried >> 32;
+          if (other == body || other == freeObject) continue;
+          const double gapA = std::max(contacts.carryGap[id], 0.0),
+                       gapB = std::max(contacts.startDistance[i], 0.0);
+          const double weightA = gapA + gapB > 0 ? gapB / (gapA + gapB) : 0.5,
+                       weightB = 1 - weightA;
+          held.motion = RigidMotion{
+              weightA * contacts.carryRotation[id] + weightB * held.motion.rotation,
+              weightA * contacts.carryTranslation[id] + weightB * held.motion.translation};
+          held.precedence = PrimitiveContactPool::kSqueezedPrecedence;
+          ++report.squeezed;
+          break;
+        }
+      }
       for (int k = 0; k < v.count; ++k) {
         const Index id = v.id[k];
         if (particles.w[id] > 0 && contacts.carryPrecedence[id] > held.precedence) {
@@ -1181,6 +1211,7 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
         contacts.carryPrecedence[id] = held.precedence;
         contacts.carryRotation[id] = held.motion.rotation;
         contacts.carryTranslation[id] = held.motion.translation;
+        contacts.carryGap[id] = contacts.startDistance[i];
         const Vec3 target =
             Vec3((held.motion.rotation * particles.x[id].cast<double>() + held.motion.translation)
                      .cast<Real>());

@@ -15,7 +15,10 @@
 //                             Anderson 2002 §7.4; Harmon et al. 2008), or the rigid motion of a
 //                             kinematic side (a turning collider, a pinned ring), until none is
 //                             left: a bounded fail-safe that keeps an intersection-free state
-//                             intersection-free
+//                             intersection-free. A particle carried with one collider body that
+//                             crosses another (a squeeze to less than its contact distance) is
+//                             held in the gap between the two, each body's motion weighed by the
+//                             particle's start distance from the other (counted: squeezes)
 //   applyRestitution          after the update: closing contacts bounce with restitution e
 //
 // Pairs within one object that are closer than their contact distance in the rest shape get no
@@ -90,6 +93,7 @@ struct CrossingReport {
   std::size_t crossings = 0;     // crossing pairs the fail-safe found (summed over its rounds)
   std::size_t stopped = 0;       // particle positions it reset
   std::size_t carried = 0;       // … of which carried by a kinematic body's motion
+  std::size_t squeezed = 0;      // squeezes between two bodies it held a particle in the gap of
   std::size_t zones = 0;         // impact zones it moved as rigid bodies
   std::size_t stoppedZones = 0;  // … of them stopped, momentum lost, to end the rounds
   // zone turns of a quarter or more in one substep, left out (the zone only translated)

@@ -192,6 +192,7 @@ void finishPrimitiveContacts(SolvePools& pools, const SolveSettings& settings,
     report.crossing.crossings += crossing.crossings;
     report.crossing.stopped += crossing.stopped;
     report.crossing.carried += crossing.carried;
+    report.crossing.squeezed += crossing.squeezed;
     report.crossing.zones += crossing.zones;
     report.crossing.stoppedZones += crossing.stoppedZones;
     report.crossing.turnsDropped += crossing.turnsDropped;
