@@ -15,10 +15,11 @@
 //                             Anderson 2002 §7.4; Harmon et al. 2008), or the rigid motion of a
 //                             kinematic side (a turning collider, a pinned ring), until none is
 //                             left: a bounded fail-safe that keeps an intersection-free state
-//                             intersection-free. A particle carried with one collider body that
-//                             crosses another (a squeeze to less than its contact distance) is
-//                             held in the gap between the two, each body's motion weighed by the
-//                             particle's start distance from the other (counted: squeezes)
+//                             intersection-free. A particle carried with one translating collider
+//                             body that crosses another (a squeeze to less than its contact
+//                             distance) is held in the gap between the two, each body's motion
+//                             weighed by the particle's start distance from the other (counted:
+//                             squeezes); between turning bodies the squeeze stays unresolved
 //   applyRestitution          after the update: closing contacts bounce with restitution e
 //
 // Pairs within one object that are closer than their contact distance in the rest shape get no
