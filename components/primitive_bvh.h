@@ -113,9 +113,9 @@ constexpr std::size_t kBvhTreeCount = 4;
 
 // A primitive's tag, which lets a traversal pass over a pair of subtrees none of whose pairs the
 // broad phase's filters would keep: the primitive's object in the low bits (kMixedObject for a
-// subtree of several objects, or where the exclusions are not tabulated) and kFreeTag if one of
-// its particles can move. Two subtrees of primitives that cannot move, or of two objects that
-// never collide (one object without self-collision), hold no pair.
+// subtree of several objects) and kFreeTag if one of its particles can move. Two subtrees of
+// primitives that cannot move, or of two objects that never collide (one object without
+// self-collision), hold no pair.
 constexpr std::uint32_t kFreeTag = 1u << 31;
 constexpr std::uint32_t kMixedObject = kFreeTag - 1;
 constexpr std::uint32_t primitiveTag(std::uint32_t object, bool free) {
@@ -124,7 +124,8 @@ constexpr std::uint32_t primitiveTag(std::uint32_t object, bool free) {
 
 // The object pairs that never collide, as a bit matrix for the traversals' lookups
 // (CollisionPrimitives::excludedPairs is the source). Tabulated up to kMaxObjects objects; beyond
-// that the tags say kMixedObject and only the motion test prunes.
+// that no object pair counts as excluded here (the pair filters still drop them) and only
+// subtrees that cannot move are passed over.
 struct ObjectExclusions {
   static constexpr std::size_t kMaxObjects = 2048;
   std::size_t objects = 0;
@@ -135,7 +136,6 @@ struct ObjectExclusions {
     const std::size_t k = std::size_t{a} * objects + b;
     return (bits[k >> 6] >> (k & 63)) & 1u;
   }
-  bool any() const { return !source.empty() && objects > 0; }
   // Whether object a is in some excluded pair.
   bool names(std::uint32_t a) const { return a < objects && named[a]; }
   std::vector<std::uint8_t> named;

@@ -164,10 +164,15 @@ void computeTags(PrimitiveBvh& bvh, const CollisionPrimitives& primitives,
   // Where few points are fixed or of an object named in an exclusion (pins, a small collider
   // mesh that does not collide with itself), passing over subtrees would save less than the tag
   // lookups cost: no tags, and the traversals prune nothing.
-  std::size_t prunable = 0;
-  for (std::size_t i = 0; i < primitives.points(); ++i)
-    prunable +=
-        w[primitives.pointParticle[i]] == 0 || bvh.exclusions.names(primitives.pointObject[i]);
+  const std::size_t prunable = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, primitives.points(), kBoxGrain), std::size_t{0},
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t count) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i)
+          count += w[primitives.pointParticle[i]] == 0 ||
+                   bvh.exclusions.names(primitives.pointObject[i]);
+        return count;
+      },
+      std::plus<>());
   if (prunable * kPrunableShare < primitives.points()) {
     for (std::vector<std::uint32_t>& tags : bvh.tags) tags.clear();
     return;

@@ -1148,10 +1148,10 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
       // pair as it was at the start, which was crossing-free. A particle's precedence only grows
       // (a zone over its own motion, carried over a zone, a lower body and triangle over a higher
       // one) and zones only merge, so the rounds end: a patch held to a body moves with it, and
-      // a squeeze between two bodies is reported as unresolved rather than flipped back and
-      // forth. (Letting the latest crossing decide, as the mean-translation carry before it did,
-      // flipped particles between stopped and carried until the round limit on a box turning
-      // under a draped cloth.)
+      // a squeeze between two bodies is held in the gap (below) or, between turning bodies,
+      // reported as unresolved rather than flipped back and forth. (Letting the latest crossing
+      // decide, as the mean-translation carry before it did, flipped particles between stopped and
+      // carried until the round limit on a box turning under a draped cloth.)
       Carry held;
       if (freeA != freeB) {
         held = kinematicCarry(v, !freeA, candidates.kind[i],
@@ -1177,13 +1177,14 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
           // Only between bodies that translate: between turning ones (two rollers wringing a
           // cloth) the weighed motion can leave the particle inside a curved surface, whose
           // contacts then push it through (measured: a wringer went from unresolved crossings
-          // to edges at 60 times their length); the squeeze stays unresolved there.
+          // to edges at 64 times their length); the squeeze stays unresolved there.
           constexpr double kTurn = 1e-5;  // a translating body's frames agree to rounding
           if (!contacts.carryRotation[id].isIdentity(kTurn) ||
               !held.motion.rotation.isIdentity(kTurn))
             continue;
-          const double gapA = std::max(contacts.carryGap[id], 0.0),
-                       gapB = std::max(contacts.startDistance[i], 0.0);
+          // Written so that a NaN counts as no gap.
+          const auto gapOf = [](double d) { return d > 0 ? d : 0.0; };
+          const double gapA = gapOf(contacts.carryGap[id]), gapB = gapOf(contacts.startDistance[i]);
           const double weightA = gapA + gapB > 0 ? gapB / (gapA + gapB) : 0.5,
                        weightB = 1 - weightA;
           held.motion = RigidMotion{
