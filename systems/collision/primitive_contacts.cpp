@@ -449,10 +449,11 @@ void gatherCorrections(const PrimitiveContactPool& pool, ParticlePool& particles
                         int active = 0;
                         for (Index e = pool.incidenceOffset[i]; e < pool.incidenceOffset[i + 1];
                              ++e) {
+                          // Without a branch: whether a contact is pressed changes from
+                          // round to round, and a zero correction adds nothing to the sum.
                           const Vec3 delta = correction(pool.incidence[e] >> 2);
-                          if (delta.isZero(0)) continue;
                           sum += pool.incidenceCoefficient[e] * delta;
-                          ++active;
+                          active += (delta.x() != 0) | (delta.y() != 0) | (delta.z() != 0);
                         }
                         if (active > 0) particles.p[i] += particles.w[i] * sum / Real(active);
                       }
@@ -954,10 +955,8 @@ void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& part
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       primitiveContactSteps(contacts, particles, r.begin(), r.end());
                     });
-  // Most contacts are not pressed in a given round: their normal is not even loaded.
   gatherCorrections(contacts, particles, [&](Index c) -> Vec3 {
-    const Real step = contacts.step[c];
-    return step == 0 ? Vec3::Zero() : Vec3(step * contacts.normal[c]);
+    return Vec3(contacts.step[c] * contacts.normal[c]);
   });
 }
 
