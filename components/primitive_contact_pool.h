@@ -58,6 +58,12 @@ struct PrimitiveContactPool {
   std::vector<Real> incidenceCoefficient;  // c_k of each incidence entry, beside it
   std::vector<Index> touched;              // particles with at least one contact, ascending
   std::vector<Index> incidenceCursor;      // scratch of the incidence's parallel build
+  // The scatter's per-particle sums of a round with few pressed contacts (zero between rounds):
+  // Σ c_k × correction over the particle's pressed contacts in contact order, their count, and
+  // the particles that have any.
+  std::vector<Vec3> pressedSum;
+  std::vector<Index> pressedCount;
+  std::vector<Index> pressedParticles;
 
   // Friction scratch of the parallel backends: the tangential correction of each contact.
   std::vector<Vec3> tangentStep;

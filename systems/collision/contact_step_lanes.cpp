@@ -29,8 +29,9 @@ namespace {
 #if defined(__x86_64__)
 [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
 #endif
-void primitiveContactSteps(PrimitiveContactPool& pool, const ParticlePool& particles,
-                           std::size_t begin, std::size_t end) {
+std::size_t
+primitiveContactSteps(PrimitiveContactPool& pool, const ParticlePool& particles, std::size_t begin,
+                      std::size_t end) {
   const Index* ids = pool.particles.data()->data();
   const Real* coefficient = pool.coefficient.data()->data();
   const Real* normal = pool.normal.data()->data();
@@ -40,7 +41,8 @@ void primitiveContactSteps(PrimitiveContactPool& pool, const ParticlePool& parti
   const Real* p = particles.p.data()->data();
   Real* step = pool.step.data();
   Real* lambda = pool.lambda.data();
-#pragma omp simd
+  std::size_t pressed = 0;
+#pragma omp simd reduction(+ : pressed)
   for (std::size_t c = begin; c < end; ++c) {
     // Σ c_k p_k from zero in slot order, then n · sum in the order of Eigen's dot of three
     // (the library's build: n_x s_x + (n_y s_y + n_z s_z) for float, (n_x s_x + n_y s_y) +
@@ -59,7 +61,9 @@ void primitiveContactSteps(PrimitiveContactPool& pool, const ParticlePool& parti
     const Real delta = none ? Real(0) : -C / m;
     step[c] = delta;
     lambda[c] = lambda[c] + delta * m;
+    pressed += delta != 0;
   }
+  return pressed;
 }
 
 }  // namespace nucleon

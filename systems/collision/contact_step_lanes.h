@@ -26,8 +26,8 @@ inline Real primitiveContactStep(const PrimitiveContactPool& pool, const Particl
 }
 
 // For contacts [begin, end): step[c] = primitiveContactStep(pool, particles, c), bit for bit,
-// and lambda[c] += step[c] × inverseMass[c].
-void primitiveContactSteps(PrimitiveContactPool& pool, const ParticlePool& particles,
-                           std::size_t begin, std::size_t end);
+// and lambda[c] += step[c] × inverseMass[c]. Returns how many of the steps are not zero.
+std::size_t primitiveContactSteps(PrimitiveContactPool& pool, const ParticlePool& particles,
+                                  std::size_t begin, std::size_t end);
 
 }  // namespace nucleon

@@ -460,78 +460,36 @@ void gatherCorrections(const PrimitiveContactPool& pool, ParticlePool& particles
                     });
 }
 
-// The CSR incidence, in parallel: per-particle counts (integer atomics: the same totals in any
-// order), one scan for the offsets and the touched particles, a fill through atomic cursors, and
-// each particle's short list sorted into contact order, so the gather's summation order, and its
-// result, do not depend on the thread count.
-void buildIncidence(PrimitiveContactPool& pool, std::size_t particleCount) {
+// A round whose pressed contacts are at most 1/kScatterShare of all is applied by
+// scatterPressedSteps: the gather reads every contact of every touched particle, most of them
+// unpressed (cloth_drop_sphere's pile presses about one contact in twelve per round).
+constexpr std::size_t kScatterShare = 4;
+
+// The gather's corrections for a round with few pressed contacts, in one pass over them: each
+// pressed contact adds c_k × step × normal to its particles' sums in contact order, the order of
+// the gather's incidence lists, and each such particle then moves by w × sum / count. The same
+// bits as gatherCorrections, whose zero corrections add nothing to a sum. Serial: the pressed
+// contacts are few, and the order of the sums must not depend on the thread count.
+void scatterPressedSteps(PrimitiveContactPool& pool, ParticlePool& particles) {
   const std::size_t n = pool.size();
-  pool.incidenceOffset.assign(particleCount + 1, 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPairGrain),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t c = r.begin(); c != r.end(); ++c)
-                        for (int k = 0; k < 4; ++k)
-                          if (pool.coefficient[c][k] != 0)
-                            std::atomic_ref<Index>(pool.incidenceOffset[pool.particles[c][k] + 1])
-                                .fetch_add(1, std::memory_order_relaxed);
-                    });
-  // Inclusive scan of the counts into offsets; the touched flags are scanned alongside into each
-  // touched particle's place in `touched`.
-  struct Sums {
-    Index entries = 0, touched = 0;
-  };
-  pool.incidenceCursor.resize(particleCount);
-  const Sums total = tbb::parallel_scan(
-      tbb::blocked_range<std::size_t>(0, particleCount, kParticleGrain), Sums{},
-      [&](const tbb::blocked_range<std::size_t>& r, Sums sum, bool final) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          const Index count = pool.incidenceOffset[i + 1];
-          if (final) {
-            pool.incidenceCursor[i] = sum.touched;
-            pool.incidenceOffset[i + 1] = sum.entries + count;
-          }
-          sum.entries += count;
-          sum.touched += count > 0;
-        }
-        return sum;
-      },
-      [](Sums a, Sums b) {
-        return Sums{a.entries + b.entries, a.touched + b.touched};
-      });
-  pool.touched.resize(total.touched);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particleCount, kParticleGrain),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        if (pool.incidenceOffset[i + 1] > pool.incidenceOffset[i])
-                          pool.touched[pool.incidenceCursor[i]] = static_cast<Index>(i);
-                        pool.incidenceCursor[i] = pool.incidenceOffset[i];
-                      }
-                    });
-  pool.incidence.resize(total.entries);
-  pool.incidenceCoefficient.resize(total.entries);
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, n, kPairGrain),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t c = r.begin(); c != r.end(); ++c)
-          for (int k = 0; k < 4; ++k)
-            if (pool.coefficient[c][k] != 0) {
-              const Index at = std::atomic_ref<Index>(pool.incidenceCursor[pool.particles[c][k]])
-                                   .fetch_add(1, std::memory_order_relaxed);
-              pool.incidence[at] = static_cast<Index>(c << 2 | static_cast<std::size_t>(k));
-            }
-      });
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pool.touched.size(), kParticleGrain),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t t = r.begin(); t != r.end(); ++t) {
-                        const Index i = pool.touched[t];
-                        std::sort(pool.incidence.begin() + pool.incidenceOffset[i],
-                                  pool.incidence.begin() + pool.incidenceOffset[i + 1]);
-                        for (Index e = pool.incidenceOffset[i]; e < pool.incidenceOffset[i + 1];
-                             ++e)
-                          pool.incidenceCoefficient[e] =
-                              pool.coefficient[pool.incidence[e] >> 2][pool.incidence[e] & 3];
-                      }
-                    });
+  pool.pressedParticles.clear();
+  for (std::size_t c = 0; c < n; ++c) {
+    const Real step = pool.step[c];
+    if (step == 0) continue;
+    const Vec3 delta = step * pool.normal[c];
+    for (int k = 0; k < 4; ++k) {
+      const Real coefficient = pool.coefficient[c][k];
+      if (coefficient == 0) continue;
+      const Index i = pool.particles[c][k];
+      if (pool.pressedCount[i]++ == 0) pool.pressedParticles.push_back(i);
+      pool.pressedSum[i] += coefficient * delta;
+    }
+  }
+  for (const Index i : pool.pressedParticles) {
+    particles.p[i] += particles.w[i] * pool.pressedSum[i] / Real(pool.pressedCount[i]);
+    pool.pressedSum[i].setZero();
+    pool.pressedCount[i] = 0;
+  }
 }
 
 // The mean substep motion p − x of the free particles with a finite one, summed over fixed
@@ -797,6 +755,85 @@ std::size_t moveImpactZones(PrimitiveContactPool& contacts, ParticlePool& partic
 
 }  // namespace
 
+// The CSR incidence, in parallel: per-particle counts (integer atomics: the same totals in any
+// order), one scan for the offsets and the touched particles, a fill through atomic cursors, and
+// each particle's short list sorted into contact order, so the gather's summation order, and its
+// result, do not depend on the thread count.
+void buildContactIncidence(PrimitiveContactPool& pool, std::size_t particleCount) {
+  const std::size_t n = pool.size();
+  pool.incidenceOffset.assign(particleCount + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t c = r.begin(); c != r.end(); ++c)
+                        for (int k = 0; k < 4; ++k)
+                          if (pool.coefficient[c][k] != 0)
+                            std::atomic_ref<Index>(pool.incidenceOffset[pool.particles[c][k] + 1])
+                                .fetch_add(1, std::memory_order_relaxed);
+                    });
+  // Inclusive scan of the counts into offsets; the touched flags are scanned alongside into each
+  // touched particle's place in `touched`.
+  struct Sums {
+    Index entries = 0, touched = 0;
+  };
+  pool.incidenceCursor.resize(particleCount);
+  const Sums total = tbb::parallel_scan(
+      tbb::blocked_range<std::size_t>(0, particleCount, kParticleGrain), Sums{},
+      [&](const tbb::blocked_range<std::size_t>& r, Sums sum, bool final) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Index count = pool.incidenceOffset[i + 1];
+          if (final) {
+            pool.incidenceCursor[i] = sum.touched;
+            pool.incidenceOffset[i + 1] = sum.entries + count;
+          }
+          sum.entries += count;
+          sum.touched += count > 0;
+        }
+        return sum;
+      },
+      [](Sums a, Sums b) {
+        return Sums{a.entries + b.entries, a.touched + b.touched};
+      });
+  pool.touched.resize(total.touched);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particleCount, kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        if (pool.incidenceOffset[i + 1] > pool.incidenceOffset[i])
+                          pool.touched[pool.incidenceCursor[i]] = static_cast<Index>(i);
+                        pool.incidenceCursor[i] = pool.incidenceOffset[i];
+                      }
+                    });
+  if (pool.pressedSum.size() != particleCount) {
+    pool.pressedSum.assign(particleCount, Vec3::Zero());
+    pool.pressedCount.assign(particleCount, 0);
+  }
+  pool.pressedParticles.reserve(total.touched);
+  pool.incidence.resize(total.entries);
+  pool.incidenceCoefficient.resize(total.entries);
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t c = r.begin(); c != r.end(); ++c)
+          for (int k = 0; k < 4; ++k)
+            if (pool.coefficient[c][k] != 0) {
+              const Index at = std::atomic_ref<Index>(pool.incidenceCursor[pool.particles[c][k]])
+                                   .fetch_add(1, std::memory_order_relaxed);
+              pool.incidence[at] = static_cast<Index>(c << 2 | static_cast<std::size_t>(k));
+            }
+      });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pool.touched.size(), kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t t = r.begin(); t != r.end(); ++t) {
+                        const Index i = pool.touched[t];
+                        std::sort(pool.incidence.begin() + pool.incidenceOffset[i],
+                                  pool.incidence.begin() + pool.incidenceOffset[i + 1]);
+                        for (Index e = pool.incidenceOffset[i]; e < pool.incidenceOffset[i + 1];
+                             ++e)
+                          pool.incidenceCoefficient[e] =
+                              pool.coefficient[pool.incidence[e] >> 2][pool.incidence[e] & 3];
+                      }
+                    });
+}
+
 void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
                              const CollisionPrimitives& primitives, const ParticlePool& particles) {
   const ObjectSurface* surfaces = primitives.objectSurface.data();
@@ -929,7 +966,7 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
                           contacts.store(slot++, c);
                       }
                     });
-  buildIncidence(contacts, particles.size());
+  buildContactIncidence(contacts, particles.size());
   contacts.predicted.assign(particles.p.begin(), particles.p.end());
   contacts.boundVersion = candidates.version;
 }
@@ -951,13 +988,19 @@ void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& part
     }
     return;
   }
+  std::atomic<std::size_t> pressed{0};
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPairGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      primitiveContactSteps(contacts, particles, r.begin(), r.end());
+                      pressed.fetch_add(
+                          primitiveContactSteps(contacts, particles, r.begin(), r.end()),
+                          std::memory_order_relaxed);
                     });
-  gatherCorrections(contacts, particles, [&](Index c) -> Vec3 {
-    return Vec3(contacts.step[c] * contacts.normal[c]);
-  });
+  if (pressed.load() * kScatterShare <= n) {
+    scatterPressedSteps(contacts, particles);
+    return;
+  }
+  gatherCorrections(contacts, particles,
+                    [&](Index c) -> Vec3 { return Vec3(contacts.step[c] * contacts.normal[c]); });
 }
 
 void applyPrimitiveFriction(PrimitiveContactPool& contacts, ParticlePool& particles,

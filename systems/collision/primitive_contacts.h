@@ -80,8 +80,14 @@ constexpr Real kPrimitiveContactMargin = Real(0.0025);
 void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePairs& candidates,
                              const CollisionPrimitives& primitives, const ParticlePool& particles);
 
-// Projects every contact onto particles.p: Gauss–Seidel in pool order, the parallel backends by a
-// per-particle gather of every contact's correction (averaged over the particle's contacts).
+// The per-particle incidence of the contacts (PrimitiveContactPool::incidence, touched) that the
+// parallel backends' projection reads; detectPrimitiveContacts builds it after filling the pool.
+void buildContactIncidence(PrimitiveContactPool& contacts, std::size_t particleCount);
+
+// Projects every contact onto particles.p: Gauss–Seidel in pool order; the parallel backends move
+// each particle by the mean of its pressed contacts' corrections (summed in contact order, so the
+// same bits at any thread count), gathered per particle, or scattered from the pressed contacts
+// alone when they are few.
 void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& particles,
                               SolverKind kind);
 
