@@ -15,7 +15,11 @@ const char* toString(SolverKind kind);
 bool parseSolverKind(const std::string& name, SolverKind& out);
 
 struct SolverSettings {
-  SolverKind kind = SolverKind::GaussSeidel;
+  // Multigrid by default: parallel, deterministic, and the furthest converged per sweep; the
+  // serial Gauss–Seidel sweep left a large sheet's edges at several times their length where
+  // nothing else was set (bench/results/2core-AMD-EPYC/torture.md, "A large sheet at the default
+  // thickness").
+  SolverKind kind = SolverKind::Multigrid;
   int iterations = 10;  // sweeps per substep of every family, when `schedule` is empty
   int substeps = 1;     // substeps per step(dt)
   // Substeps raised for fast animation (ARCHITECTURE.md §2): a step takes as many substeps as it
