@@ -12,8 +12,9 @@
 // however far the primitives were predicted to travel through each other.
 //
 // For the parallel backends the corrections are gathered per particle through a CSR incidence
-// (particle → (contact, slot)) built with the pool, in contact order, so the result does not
-// depend on the thread count.
+// (particle → (contact, slot)) built with the pool, in contact order, or, in a round with few
+// pressed contacts, scattered from those alone in the same order: the result does not depend on
+// the thread count.
 #pragma once
 
 #include <array>

@@ -123,7 +123,8 @@ std::tuple<ParticlePool, PrimitiveContactPool> pressedContacts(std::size_t count
 }
 
 TEST(ContactStepLanes, GatherAndScatterMoveEachParticleByItsPressedContactsMean) {
-  // 6% pressed goes through the scatter (at most a quarter), 60% through the gather.
+  // 6% pressed goes through the scatter (at most a quarter: kScatterShare in
+  // primitive_contacts.cpp), 60% through the gather.
   for (const double pressedShare : {0.06, 0.6}) {
     auto [start, pool] = pressedContacts(400, 1500, pressedShare, 5);
     // The expected positions, contact by contact in pool order: what one round must give.

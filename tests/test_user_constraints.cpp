@@ -179,6 +179,37 @@ TEST(UserConstraints, PointOnPlaneHoldsTheCornersInEveryBackend) {
   }
 }
 
+// Multigrid's coarse levels do not see registered families: a world that has both says so,
+// naming the family; a family without constraints, or another backend, gives no such line.
+TEST(UserConstraints, MultigridWithARegisteredFamilyIsWarnedOf) {
+  const auto familyLines = [](const World& world) {
+    int lines = 0;
+    for (const std::string& line : world.warnings())
+      lines += line.rfind("on-plane: registered families are not seen by multigrid", 0) == 0;
+    return lines;
+  };
+  World world;
+  UserConstraintFamilyDef def;
+  def.name = "on-plane";
+  def.arity = 1;
+  def.restSize = 4;
+  def.evaluate = distanceFromPlane;
+  const ConstraintFamily family = world.registerConstraintFamily(def);
+  GridSpec grid;
+  grid.resolution = {8, 8};
+  const ObjectId id = world.addCloth(gridCloth(grid));
+  SolverSettings solver;
+  solver.kind = SolverKind::Multigrid;
+  world.setSolver(solver);
+  EXPECT_EQ(familyLines(world), 0);  // registered, but no constraint of it yet
+  const Real plane[] = {0, 1, 0, Real(0.5)};
+  world.addConstraint(id, family, {{0}}, plane);
+  EXPECT_EQ(familyLines(world), 1);
+  solver.kind = SolverKind::ColoredGaussSeidel;
+  world.setSolver(solver);
+  EXPECT_EQ(familyLines(world), 0);
+}
+
 TEST(UserConstraints, ScheduledByNameAndCounted) {
   World world;
   const ConstraintFamily family = world.registerConstraintFamily(distanceFamily());

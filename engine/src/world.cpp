@@ -778,6 +778,17 @@ std::vector<std::string> World::warnings() const {
             "thickness or a coarser mesh avoids it)";
     lines.push_back(line.str());
   }
+  // Multigrid's coarse levels do not see registered families: a hard one (a point held on a
+  // plane) is pulled off by the cascade every substep for the fine sweeps to put back, and the
+  // cloth around it stretches (examples/user_constraint.cpp: its worst edge at 26 times its
+  // length).
+  if (s.solver.kind == SolverKind::Multigrid)
+    for (const UserConstraintPool& pool : s.constraints.user)
+      if (pool.size() > 0)
+        lines.push_back(pool.family.name +
+                        ": registered families are not seen by multigrid's coarse levels, which "
+                        "pull their particles away every substep (gauss-seidel, jacobi or "
+                        "colored-gs solve them)");
   return lines;
 }
 

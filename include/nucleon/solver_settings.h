@@ -15,11 +15,10 @@ const char* toString(SolverKind kind);
 bool parseSolverKind(const std::string& name, SolverKind& out);
 
 struct SolverSettings {
-  // Multigrid by default: parallel, deterministic, and the furthest converged per sweep; the
-  // serial Gauss–Seidel sweep left a large sheet's edges at several times their length where
-  // nothing else was set (bench/results/2core-AMD-EPYC/torture.md, "A large sheet at the default
-  // thickness").
-  SolverKind kind = SolverKind::Multigrid;
+  // Gauss–Seidel here, the one backend every constraint family, registered ones included, is
+  // converged by; a scene file's default is multigrid (Scene::solver), whose coarse levels do not
+  // see registered families (World::warnings says so where both meet).
+  SolverKind kind = SolverKind::GaussSeidel;
   int iterations = 10;  // sweeps per substep of every family, when `schedule` is empty
   int substeps = 1;     // substeps per step(dt)
   // Substeps raised for fast animation (ARCHITECTURE.md §2): a step takes as many substeps as it

@@ -100,7 +100,9 @@ class World {
   // Advice on the scene as built, one line each, naming the object: a cloth whose contact
   // distance (its thickness twice with self-collision, or its thickness plus a collider's) exceeds
   // its median edge length, which over a collider's sharp edges stretches edges that straddle them
-  // (bench/results/2core-AMD-EPYC/torture.md, the 128² drape). Empty when there is none.
+  // (bench/results/2core-AMD-EPYC/torture.md, the 128² drape); a registered family with
+  // constraints under the multigrid backend, whose coarse levels do not see it. Empty when there
+  // is none.
   std::vector<std::string> warnings() const;
 
   std::size_t constraintCount(ConstraintFamily family) const;

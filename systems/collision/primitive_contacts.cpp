@@ -996,9 +996,17 @@ void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& part
                           std::memory_order_relaxed);
                     });
   if (pressed.load() * kScatterShare <= n) {
+    // Sized by buildContactIncidence; a pool filled otherwise gets its scratch here.
+    if (contacts.pressedSum.size() != particles.size()) {
+      contacts.pressedSum.assign(particles.size(), Vec3::Zero());
+      contacts.pressedCount.assign(particles.size(), 0);
+    }
     scatterPressedSteps(contacts, particles);
     return;
   }
+  // A product, not a select (which cost 1–2% of cloth_self's step): a contact's normal and
+  // coefficients are finite (makeContact makes none from a non-finite position), so an unpressed
+  // contact's 0 × normal is zero.
   gatherCorrections(contacts, particles,
                     [&](Index c) -> Vec3 { return Vec3(contacts.step[c] * contacts.normal[c]); });
 }
