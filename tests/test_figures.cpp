@@ -127,8 +127,9 @@ nlohmann::json readJson(const std::string& path) {
 // Scene numbers are bounded (±1e9), so a scene cannot state an absurd value directly; an OBJ
 // vertex can, up to the largest float (the OBJ reader's range). A particle at −half the largest
 // float sits deep below the ground: the contact pushes it to the surface, and the velocity that
-// move implies, depth / h, overflows a float. The step repairs it every frame. With double
-// precision no input a scene accepts gets near overflow; the API test above covers that build.
+// move implies, depth / h, overflows a float. The step repairs it every frame (one substep each).
+// With double precision no input a scene accepts gets near overflow; the API test above covers that
+// build.
 TEST(Recoveries, RunStatsReportRepairsAndNonFiniteValues) {
   if constexpr (sizeof(Real) != sizeof(float))
     GTEST_SKIP() << "no scene file reaches a non-finite value in double precision";
@@ -138,7 +139,7 @@ TEST(Recoveries, RunStatsReportRepairsAndNonFiniteValues) {
                 -0.5 * double(std::numeric_limits<float>::max()));
   folder.write("deep.obj", vertex);
   const std::string scene = folder.write("deep.json", R"({
-    "name": "deep", "frames": 3, "fps": 60,
+    "name": "deep", "frames": 3, "fps": 60, "solver": { "substeps": 1 },
     "ground": { "height": 0 },
     "objects": [ { "type": "particles", "shape": { "obj": "deep.obj" } } ]
   })");

@@ -205,16 +205,16 @@ TEST(Scene, ReadsATube) {
   EXPECT_EQ(world.particleCount(), 32u);
 }
 
-// A scene file that names no solver runs multigrid (Scene::solver), the backend that converges
-// furthest per sweep; one that names its type keeps it; the C++ default stays Gauss–Seidel, which
-// every registered family is converged by.
+// A scene file that names no solver runs multigrid at two substeps (Scene::solver); one that names
+// its type keeps it; the C++ default stays Gauss–Seidel at one substep, which every registered
+// family is converged by.
 TEST(Scene, SolvesWithMultigridWhereTheFileNamesNoSolver) {
   const char* cloth =
       R"("objects": [{"type": "cloth", "shape": {"grid": {"resolution": [4, 4]}}}])";
   const Scene bare = parseScene(std::string("{") + cloth + "}", "test.json", ".");
   EXPECT_EQ(bare.solver.kind, SolverKind::Multigrid);
   EXPECT_EQ(bare.solver.iterations, 10);
-  EXPECT_EQ(bare.solver.substeps, 1);
+  EXPECT_EQ(bare.solver.substeps, 2);
   const Scene counted =
       parseScene(std::string(R"({"solver": {"iterations": 5}, )") + cloth + "}", "test.json", ".");
   EXPECT_EQ(counted.solver.kind, SolverKind::Multigrid);
@@ -223,6 +223,7 @@ TEST(Scene, SolvesWithMultigridWhereTheFileNamesNoSolver) {
       std::string(R"({"solver": {"type": "gauss-seidel"}, )") + cloth + "}", "test.json", ".");
   EXPECT_EQ(named.solver.kind, SolverKind::GaussSeidel);
   EXPECT_EQ(SolverSettings{}.kind, SolverKind::GaussSeidel);
+  EXPECT_EQ(SolverSettings{}.substeps, 1);
   EXPECT_EQ(buildWorld(bare).solver().kind, SolverKind::Multigrid);
 }
 
