@@ -137,6 +137,16 @@ Real distanceFromPlane(const Vec3* x, const Real* plane, Vec3* gradient, const v
   return normal.dot(x[0]) - plane[3];
 }
 
+// The point-on-plane family (rest data: the plane's normal and offset), registered in `world`.
+ConstraintFamily registerOnPlane(World& world) {
+  UserConstraintFamilyDef def;
+  def.name = "on-plane";
+  def.arity = 1;
+  def.restSize = 4;
+  def.evaluate = distanceFromPlane;
+  return world.registerConstraintFamily(def);
+}
+
 }  // namespace
 
 // A falling cloth whose four corners are held on the plane y = 0.5 by a registered family: the
@@ -148,12 +158,7 @@ TEST(UserConstraints, PointOnPlaneHoldsTheCornersInEveryBackend) {
   for (const Backend& b : kBackends) {
     SCOPED_TRACE(b.name);
     World world;
-    UserConstraintFamilyDef def;
-    def.name = "on-plane";
-    def.arity = 1;
-    def.restSize = 4;
-    def.evaluate = distanceFromPlane;
-    const ConstraintFamily family = world.registerConstraintFamily(def);
+    const ConstraintFamily family = registerOnPlane(world);
     GridSpec grid;
     grid.resolution = {16, 16};
     ObjectDef d = gridCloth(grid);  // at y = 1
@@ -189,12 +194,7 @@ TEST(UserConstraints, MultigridWithARegisteredFamilyIsWarnedOf) {
     return lines;
   };
   World world;
-  UserConstraintFamilyDef def;
-  def.name = "on-plane";
-  def.arity = 1;
-  def.restSize = 4;
-  def.evaluate = distanceFromPlane;
-  const ConstraintFamily family = world.registerConstraintFamily(def);
+  const ConstraintFamily family = registerOnPlane(world);
   GridSpec grid;
   grid.resolution = {8, 8};
   const ObjectId id = world.addCloth(gridCloth(grid));
