@@ -60,8 +60,8 @@ TEST_P(EveryBundledScene, RunsWithoutRepairsOrNonFiniteValues) {
   // No free particle ends any frame behind the ground's or a sphere's surface.
   EXPECT_EQ(j.at("failures").at("frames_inside_colliders").get<long long>(), 0);
   const std::vector<std::string> collisionScenes = {
-      "bullet_cloth", "cloth_drop_sphere", "cloth_free_fall", "cloth_self",
-      "cloth_twist",  "kinematic_spin",    "rope_pile"};
+      "balloon",    "bullet_cloth", "cloth_drop_sphere", "cloth_free_fall",
+      "cloth_self", "cloth_twist",  "kinematic_spin",    "rope_pile"};
   if (std::find(collisionScenes.begin(), collisionScenes.end(), GetParam()) !=
       collisionScenes.end()) {
     for (const nlohmann::json& frame : j.at("per_frame"))
@@ -96,6 +96,44 @@ TEST(BundledScenes, SolidJellyWobblesOnTheGroundAndKeepsItsVolume) {
   const Measures end = world.measure();
   EXPECT_GT(end.contacts, 0u);                  // it rests on the ground
   EXPECT_LT(end.maxStrain, largestStrain / 2);  // and has recovered most of its shape
+}
+
+// The balloon does what its description says: the pump inflates it by more than a quarter of its
+// rest volume in its first second; the plate's squeeze raises the pressure inside by about 1% of
+// an atmosphere (the membrane gives way sideways) and the volume stays within 2% of where it was
+// (Boyle's law: the gas is stiff); from 3.2 s the leak takes the gas back towards the rest fill
+// and the volume falls in every frame, to within 10% of the rest volume at the end (1.2 s of a
+// 1.5/s leak leaves 17% of the gas beyond the rest fill). Every frame is clean: no intersection,
+// no repair. In the multigrid backend, the scene's, and in Jacobi; Jacobi's less converged
+// membrane lets the balloon settle lower (0.40 m high against 0.50), so the plate only grazes it
+// and the squeeze is checked in the scene's backend.
+TEST(BundledScenes, BalloonInflatesIsSqueezedAndLeaks) {
+  const std::string scene = std::string(NUCLEON_ASSETS_DIR) + "/scenes/balloon.json";
+  for (const char* solver : {"multigrid", "jacobi"}) {
+    SCOPED_TRACE(solver);
+    const nlohmann::json j = test::runScene(scene, {"--solver", solver}).stats;
+    ASSERT_FALSE(j.is_null());
+    EXPECT_EQ(j.at("recoveries").get<long long>(), 0);
+    EXPECT_EQ(j.at("nan_count").get<long long>(), 0);
+    const double rest = j.at("pressure")[0].at("rest_volume").get<double>();
+    const nlohmann::json& frames = j.at("per_frame");
+    auto volume = [&](int frame) { return frames[frame - 1].at("pressure")[0][0].get<double>(); };
+    auto pressure = [&](int frame) { return frames[frame - 1].at("pressure")[0][1].get<double>(); };
+    EXPECT_GT(volume(60), 1.25 * rest);
+    double squeezed = 0;
+    for (int frame = 132; frame <= 156; ++frame) {  // the plate down, 2.2–2.6 s
+      squeezed = std::max(squeezed, pressure(frame));
+      EXPECT_NEAR(volume(frame), volume(70), 0.02 * volume(70)) << "frame " << frame;
+    }
+    if (std::string(solver) == "multigrid") {
+      EXPECT_GT(squeezed, pressure(70) + 500);
+    }
+    for (int frame = 200; frame <= static_cast<int>(frames.size()); ++frame)
+      EXPECT_LT(volume(frame), volume(frame - 1)) << "frame " << frame;
+    EXPECT_LT(volume(static_cast<int>(frames.size())), 1.1 * rest);
+    for (const nlohmann::json& frame : frames)
+      ASSERT_EQ(frame.at("intersections").get<long long>(), 0) << "frame " << frame.at("frame");
+  }
 }
 
 // The stiff cantilever holds out horizontally (its tip within 2 cm of the clamp's height) while

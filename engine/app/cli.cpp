@@ -248,6 +248,13 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
                         {"inside_colliders", m.insideColliders},
                         {"contacts", m.contacts},
                         {"substeps", world.profile().substeps - substepsBefore}});
+    // Pressured cloths: volume (m³) and pressure (Pa, absolute) at the frame's end, in object
+    // order.
+    for (std::size_t i = 0; i < world.objectCount(); ++i)
+      if (const ObjectId id = world.objectAt(i); world.hasPressure(id)) {
+        const PressureReading p = world.pressure(id);
+        perFrame.back()["pressure"].push_back({p.volume, p.pressure});
+      }
     if (!o.outDir.empty())
       for (std::size_t i = 0; i < world.objectCount(); ++i) {
         const ObjectId id = world.objectAt(i);
@@ -316,7 +323,9 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
       {"nan_count", nanCount},
       {"recoveries", recoveries.total()},
       {"recoveries_by_kind",
-       {{"non_finite", recoveries.nonFinite}, {"missed_contacts", recoveries.missedContacts}}},
+       {{"non_finite", recoveries.nonFinite},
+        {"missed_contacts", recoveries.missedContacts},
+        {"collapsed_pressure_volumes", recoveries.collapsedPressureVolumes}}},
       {"first_recovery_frame", firstRecoveryFrame},
       {"failures",
        {{"clean",
@@ -334,6 +343,17 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
       {"state_hash", hex16(world.stateHash())},
       {"warnings", warnings},
       {"per_frame", perFrame}};
+  // Each pressured cloth's state at the end (World::pressure).
+  for (std::size_t i = 0; i < world.objectCount(); ++i) {
+    const ObjectId id = world.objectAt(i);
+    if (!world.hasPressure(id)) continue;
+    const PressureReading p = world.pressure(id);
+    stats["pressure"].push_back({{"object", world.name(id)},
+                                 {"volume", p.volume},
+                                 {"rest_volume", p.restVolume},
+                                 {"pressure", p.pressure},
+                                 {"gas", p.gas}});
+  }
   // Multigrid's fine-sweep backend (scene key solver.smoother).
   if (scene.solver.kind == SolverKind::Multigrid)
     stats["smoother"] = toString(scene.solver.smoother);

@@ -454,7 +454,7 @@ SceneObject readObject(const Reader& o, const std::string& folder,
     m.allowOnly({"mass", "stretch_compliance", "compression_compliance", "bend_compliance",
                  "shear_compliance", "twist_compliance", "volume_compliance", "damping",
                  "thickness", "tethers", "collide", "self_collision", "friction", "static_friction",
-                 "restitution", "stickiness"});
+                 "restitution", "stickiness", "pressure"});
     Material& mat = out.def.material;
     mat.mass = static_cast<Real>(m.number("mass", mat.mass, 1e-9, 1e9));
     mat.stretchCompliance =
@@ -479,6 +479,37 @@ SceneObject readObject(const Reader& o, const std::string& folder,
         m.number("static_friction", std::max(mat.staticFriction, mat.friction), 0, 1e3));
     mat.restitution = static_cast<Real>(m.number("restitution", mat.restitution, 0, 1));
     mat.stickiness = static_cast<Real>(m.number("stickiness", mat.stickiness, 0, 1e3));
+    if (m.has("pressure")) {
+      if (out.kind != ObjectKind::Cloth)
+        m.fail(m.at("pressure"), "only a cloth (a closed surface) can have pressure");
+      const Reader p = m.child("pressure");
+      p.allowOnly({"mode", "ambient", "start_pressure", "pump_rate", "pump_stop", "leak_rate",
+                   "leak_start", "volume_scale", "compliance"});
+      Pressure& pressure = mat.pressure;
+      const std::string mode = p.string("mode", "gas");
+      if (mode == "gas")
+        pressure.mode = PressureMode::Gas;
+      else if (mode == "keep_volume")
+        pressure.mode = PressureMode::KeepVolume;
+      else
+        p.fail(p.at("mode"), "expected gas or keep_volume, got '" + mode + "'");
+      pressure.ambient = static_cast<Real>(p.number("ambient", pressure.ambient, 1, 1e9));
+      pressure.startPressure =
+          static_cast<Real>(p.number("start_pressure", 0, -0.99 * double(pressure.ambient), 1e9));
+      pressure.pumpRate = static_cast<Real>(p.number("pump_rate", 0, 0, 1e6));
+      pressure.pumpStop = p.number("pump_stop", pressure.pumpStop, 0, 1e30);
+      pressure.leakRate = static_cast<Real>(p.number("leak_rate", 0, 0, 1e6));
+      pressure.leakStart = p.number("leak_start", 0, 0, 1e30);
+      pressure.volumeScale = static_cast<Real>(p.number("volume_scale", 1, 1e-3, 1e3));
+      pressure.compliance = static_cast<Real>(p.number("compliance", 0, 0, 1e6));
+      if (pressure.mode == PressureMode::KeepVolume)
+        for (const char* key :
+             {"start_pressure", "pump_rate", "pump_stop", "leak_rate", "leak_start"})
+          if (p.has(key)) p.fail(p.at(key), "a gas setting; mode keep_volume holds the volume");
+      if (pressure.mode == PressureMode::Gas)
+        for (const char* key : {"volume_scale", "compliance"})
+          if (p.has(key)) p.fail(p.at(key), "a keep_volume setting; mode gas follows P·V = c·M");
+    }
     if (m.has("collide")) {
       // Which primitives collide: a list of "vertices", "edges", "faces" (empty: none).
       const Json& list = m.raw("collide");

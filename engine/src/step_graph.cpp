@@ -169,9 +169,9 @@ void StepGraph::runStage(int stage) {
       break;
     }
     case kSolve: {
-      SolvePools pools{s.constraints, s.particles,         s.plan,       s.contacts,
-                       s.colliders,   s.primitiveContacts, s.candidates, s.primitives,
-                       s.bvh,         s.hierarchies,       s.objects,    s.cascade};
+      SolvePools pools{s.constraints,       s.particles,  s.plan,       s.contacts, s.colliders,
+                       s.primitiveContacts, s.candidates, s.primitives, s.bvh,      s.hierarchies,
+                       s.objects,           s.cascade,    s.pressure};
       SolveReport solve;
       profile.solve +=
           timed([&] { solve = solveConstraints(pools, solveSettingsOf(s.solver), c); });
@@ -199,6 +199,8 @@ void StepGraph::runStage(int stage) {
       profile.projections += s.plan.projectionsPerSubstep + solve.cascadeProjections;
       ++profile.substeps;
       logRepairs(s.recoveries, solve.missedContacts, s.recoveries.missedContacts, c.step);
+      logRepairs(s.recoveries, solve.collapsedPressureProjections,
+                 s.recoveries.collapsedPressureVolumes, c.step);
       break;
     }
     case kUpdate: {

@@ -23,6 +23,7 @@
 #include "systems/setup/build_derived_tables.h"
 #include "systems/setup/build_hierarchy.h"
 #include "systems/setup/sweep_schedule.h"
+#include "systems/solver/pressure.h"
 
 namespace nucleon {
 
@@ -70,6 +71,25 @@ void validateCommon(const ObjectDef& def, const std::string& what, std::size_t f
   require(std::isfinite(m.stickiness) && m.stickiness >= 0 && m.stickiness < 1e3,
           what + ": stickiness must be finite and non-negative");
   require(finite(def.velocity), what + ": velocity must be finite");
+  const Pressure& pressure = m.pressure;
+  if (pressure.mode != PressureMode::Off) {
+    require(std::isfinite(pressure.ambient) && pressure.ambient > 0 && pressure.ambient <= 1e9,
+            what + ": pressure ambient must be in (0, 1e9] Pa");
+    require(std::isfinite(pressure.startPressure) && pressure.startPressure > -pressure.ambient &&
+                pressure.startPressure <= 1e9,
+            what + ": pressure start_pressure must be above −ambient and at most 1e9 Pa");
+    require(std::isfinite(pressure.pumpRate) && pressure.pumpRate >= 0 && pressure.pumpRate <= 1e6,
+            what + ": pressure pump_rate must be in [0, 1e6] m³/s");
+    require(std::isfinite(pressure.leakRate) && pressure.leakRate >= 0 && pressure.leakRate <= 1e6,
+            what + ": pressure leak_rate must be in [0, 1e6] 1/s");
+    require(!std::isnan(pressure.pumpStop) && !std::isnan(pressure.leakStart),
+            what + ": pressure pump_stop and leak_start must be numbers");
+    require(std::isfinite(pressure.volumeScale) && pressure.volumeScale > 0 &&
+                pressure.volumeScale <= 1e3,
+            what + ": pressure volume_scale must be in (0, 1e3]");
+    require(std::isfinite(pressure.compliance) && pressure.compliance >= 0,
+            what + ": pressure compliance must be finite and non-negative");
+  }
   for (Index pin : def.pins)
     require(pin < def.vertices.size(), what + ": pin " + std::to_string(pin) +
                                            " is out of range (the object has " +
@@ -265,6 +285,8 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
       std::string(toString(kind)) + " '" +
       (def.name.empty() ? "object" + std::to_string(s.objects.size()) : def.name) + "'";
   validateCommon(def, what, s.constraints.familyCount());
+  require(def.material.pressure.mode == PressureMode::Off || kind == ObjectKind::Cloth,
+          what + ": only a cloth can have pressure");
   validateMotion(def, kind, what);
   validatePinGroups(def, kind, what);
   const std::size_t n = def.vertices.size();
@@ -301,8 +323,24 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
   const SimplicialComplex& c = record.complex;
   if (c.dimension == 2) {
     record.surface.assign(c.triangles.vertices.begin(), c.triangles.vertices.end());
-    record.closed = c.boundaryEdges().empty() && c.report.nonManifoldFaces == 0 &&
-                    c.report.inconsistentOrientation == 0;
+    const std::size_t boundary = c.boundaryEdges().size();
+    record.closed =
+        boundary == 0 && c.report.nonManifoldFaces == 0 && c.report.inconsistentOrientation == 0;
+    if (def.material.pressure.mode != PressureMode::Off && !record.closed)
+      throw MeshError(what +
+                      ": pressure needs a closed, consistently oriented surface, and it has " +
+                      std::to_string(boundary) + " boundary edges, " +
+                      std::to_string(c.report.nonManifoldFaces) + " non-manifold faces and " +
+                      std::to_string(c.report.inconsistentOrientation) +
+                      " edges whose triangles disagree on the orientation");
+    // A surface facing inwards encloses a negative volume, a flat one none.
+    if (def.material.pressure.mode != PressureMode::Off) {
+      const double rest = enclosedVolume(record.surface, def.vertices, 0);
+      if (!(rest > 0))
+        throw MeshError(what + ": pressure needs a surface that encloses a volume with its " +
+                        "triangles facing outwards (its rest volume is " + std::to_string(rest) +
+                        " m³)");
+    }
   } else if (c.dimension == 3) {
     record.surface = c.boundaryTriangles();
     record.closed = c.report.nonManifoldFaces == 0;
@@ -359,6 +397,9 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
   record.particleCount = static_cast<Index>(n);
   if (record.closed)
     record.restVolume = enclosedVolume(record.surface, particles.x, record.firstParticle);
+  if (def.material.pressure.mode != PressureMode::Off) {
+    appendPressureSurface(s.pressure, record, static_cast<std::uint32_t>(s.objects.size()));
+  }
 
   // Tethers hold free vertices to animated pins too: a tether only bounds the distance to its pin
   // by the rest path length along the mesh, which an inextensible cloth keeps wherever the pin is.
@@ -653,6 +694,7 @@ void World::step(double dt) {
     context.substeps = substepsOfStep(s, dt);
     context.h = static_cast<Real>(dt / context.substeps);
     context.inverseH = 1 / context.h;
+    s.lastSubstep = context.h;
     context.step = ++impl.state.stepCount;
     const double stepStart = impl.state.time;
     for (int i = 0; i < context.substeps; ++i) {
@@ -917,6 +959,35 @@ Measures World::measure() const {
   auto countIntersections = [&] { return countTriangleIntersections(surfaces, s.particles.x); };
   m.intersections = impl_->arena ? impl_->arena->execute(countIntersections) : countIntersections();
   return m;
+}
+
+bool World::hasPressure(ObjectId id) const {
+  return lookup(*impl_, id).material.pressure.mode != PressureMode::Off;
+}
+
+PressureReading World::pressure(ObjectId id) const {
+  const WorldState& s = impl_->state;
+  lookup(*impl_, id);
+  const PressurePool& pool = s.pressure;
+  for (std::size_t k = 0; k < pool.size(); ++k) {
+    if (pool.object[k] != id.index1 - 1) continue;
+    PressureReading reading;
+    reading.volume = pressureVolume(pool, k, s.particles.x);
+    reading.restVolume = pool.restVolume[k];
+    const Pressure& settings = pool.settings[k];
+    // The multiplier of the last substep's solve over h²: the pressure difference it applied.
+    const double h = s.lastSubstep;
+    reading.appliedPressure = double(settings.ambient) + (h > 0 ? pool.lambda[k] / (h * h) : 0.0);
+    if (settings.mode == PressureMode::Gas) {
+      reading.gas = pool.gas[k];
+      reading.pressure =
+          pool.gas[k] / std::max(reading.volume, kMinPressureVolume * reading.restVolume);
+    } else {
+      reading.pressure = reading.appliedPressure;
+    }
+    return reading;
+  }
+  throw std::invalid_argument("object '" + s.objects[id.index1 - 1].name + "' has no pressure");
 }
 
 const Recoveries& World::recoveries() const {

@@ -17,6 +17,7 @@
 #include "components/level_hierarchy.h"
 #include "components/objects.h"
 #include "components/particles.h"
+#include "components/pressure_pool.h"
 #include "components/primitive_bvh.h"
 #include "components/primitive_contact_pool.h"
 #include "components/sweep_plan.h"
@@ -59,6 +60,9 @@ struct WorldState {
   CandidatePairs candidates;
   PrimitiveContactPool primitiveContacts;
   CollisionReport collisionReport;
+  // Closed cloth surfaces with pressure (static, appended with their objects; the gas amounts
+  // carry from substep to substep).
+  PressurePool pressure;
   KinematicTracks kinematics;  // static lifetime: one track per animated collider or pin group
   // The smallest contact distance between a primitive of an animated object (collider or pinned)
   // and a primitive that moves (0: no such pair), rebuilt with the derived tables: the default
@@ -80,7 +84,8 @@ struct WorldState {
   // Simulated seconds since creation, advanced after every substep; animations are functions of
   // it. The substep being run, with its place in time, is the step graph's SubstepContext.
   double time = 0;
-  StepProfile profile;  // the engine's own per-stage timing
+  double lastSubstep = 0;  // the last substep's h (s), for readings of its multipliers
+  StepProfile profile;     // the engine's own per-stage timing
 };
 
 struct World::Impl {

@@ -5,6 +5,40 @@
 
 namespace nucleon {
 
+// Pressure of the air a closed cloth surface holds (Nucleus's pressure; ARCHITECTURE.md §2).
+//   Gas: an ideal gas at constant temperature, P·V = c·M, with c·M (Pa·m³) the amount of gas
+//     inside. The surface is pushed outwards by P − ambient per unit area, solved with the
+//     constraints as one compliant constraint on the enclosed volume V whose force is that
+//     pressure difference (its compliance at V is the gas's own, V / P). A pump adds gas, a leak
+//     lets the gas above ambient out.
+//   KeepVolume: V is held at volumeScale × its rest volume (an incompressible filling, or a
+//     compliant one with `compliance`).
+// The surface must be closed and consistently oriented (every edge shared by exactly two
+// triangles that run it in opposite directions); anything else is an error naming the object.
+enum class PressureMode { Off, Gas, KeepVolume };
+struct Pressure {
+  PressureMode mode = PressureMode::Off;
+  Real ambient = Real(101325);  // Pa: the pressure outside (sea-level air)
+  // Gas: the pressure above ambient at the rest volume when the object is created (Pa, ≥ 0), so
+  // c·M starts at (ambient + startPressure) × rest volume.
+  Real startPressure = 0;
+  // Gas: the pump's rate in m³ of air at ambient pressure per second (c·M grows by
+  // ambient × pumpRate per second) while the world's time is below pumpStop (s).
+  Real pumpRate = 0;
+  double pumpStop = 1e30;
+  // Gas: air tightness as a leak rate (1/s): from leakStart (s) on, the gas beyond the rest
+  // fill (ambient × rest volume, what the rest shape holds at ambient pressure) escapes as
+  // d(c·M)/dt = −leakRate (c·M − ambient × rest volume), and a surface holding less draws air in
+  // at the same rate: a leaking balloon goes back to its rest shape with time constant
+  // 1/leakRate wherever it is squeezed or pumped. 0: air tight.
+  Real leakRate = 0;
+  double leakStart = 0;
+  // KeepVolume: the held volume as a multiple of the rest volume, and the constraint's
+  // compliance in m³/Pa (0: hard).
+  Real volumeScale = 1;
+  Real compliance = 0;
+};
+
 struct Material {
   // Mass of the whole object in kg, spread over its particles in proportion to the length, area
   // or volume around each (lumped mass). Must be positive and finite.
@@ -65,6 +99,8 @@ struct Material {
   // Stickiness (m): primitives in contact that separate by less than this are pulled back to
   // the contact distance, so the object clings (0 = none); a pair uses the larger value.
   Real stickiness = 0;
+  // Cloth only: the pressure of the volume its closed surface encloses (off by default).
+  Pressure pressure;
 };
 
 }  // namespace nucleon

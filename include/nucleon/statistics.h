@@ -38,8 +38,12 @@ struct Recoveries {
   // Free particles that ended a solve inside a collider without a contact (they moved farther
   // than the contact pool's reach): pushed out to the surface.
   std::uint64_t missedContacts = 0;
+  // Projections of a gas-filled surface (Material::pressure) that enclosed less than 1% of its
+  // rest volume, or was turned inside out: the gas's pressure was taken at 1% of the rest
+  // volume, so that it stays finite and pushes the surface back out.
+  std::uint64_t collapsedPressureVolumes = 0;
   std::uint64_t firstStep = 0;  // 1-based step of the first repair; 0 if there was none
-  std::uint64_t total() const { return nonFinite + missedContacts; }
+  std::uint64_t total() const { return nonFinite + missedContacts + collapsedPressureVolumes; }
 };
 
 // What the collision stages did since the world was created: pairs and contacts summed over
@@ -95,6 +99,17 @@ struct CollisionReport {
   std::uint64_t mostSubsteps = 0;
   std::uint64_t cappedSubstepSteps = 0;
   std::uint64_t firstCrossingStep = 0;  // 1-based step of the first fail-safe action; 0 if none
+};
+
+// A pressured surface's state (World::pressure).
+struct PressureReading {
+  double volume = 0;      // m³, enclosed now
+  double restVolume = 0;  // m³, enclosed in the rest shape
+  double pressure = 0;    // Pa, absolute
+  double gas = 0;         // c·M, Pa·m³
+  // Pa, absolute: the ambient plus the pressure difference the last substep's solve applied to
+  // the surface (its multiplier over h²). Where the solve converged it is `pressure`.
+  double appliedPressure = 0;
 };
 
 // Quality measures of the current state (ARCHITECTURE.md §6).

@@ -126,6 +126,13 @@ class World {
   // Sweeps of a family in each substep under the current schedule (most of any object's).
   int sweepsPerSubstep(ConstraintFamily family) const;
   Measures measure() const;
+  // The state of a cloth's pressure (Material::pressure) now (PressureReading): its enclosed
+  // volume and rest volume (m³), the pressure inside (Pa, absolute: c·M / V for a gas; for
+  // KeepVolume the pressure the last solve applied), the gas amount c·M (Pa·m³; 0 for
+  // KeepVolume) and the pressure the last substep's solve applied. Throws std::invalid_argument
+  // for an object without pressure.
+  PressureReading pressure(ObjectId id) const;
+  bool hasPressure(ObjectId id) const;
   // Repairs the steps have made since the world was created (non-finite resets, particles pushed
   // out of colliders they should never have entered): zero in a healthy run.
   const Recoveries& recoveries() const;

@@ -10,6 +10,7 @@
 #include "systems/solver/constraint_sweeps.h"
 #include "systems/solver/family_pools.h"
 #include "systems/solver/multigrid_cascade.h"
+#include "systems/solver/pressure.h"
 #include "systems/solver/tether_sweep.h"
 
 namespace nucleon {
@@ -224,6 +225,9 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
   const SweepPlan& plan = pools.plan;
   const bool anyContacts = pools.contacts.size() > 0 || pools.primitiveContacts.size() > 0;
   constraints.forEach([](auto& pool) { resetMultipliers(pool); });
+  PressurePool& pressure = pools.pressure;
+  const bool anyPressure = pressure.size() > 0;
+  if (anyPressure) startPressureSubstep(pressure, context.time, context.h);
   SweepContext sweep{particles, context.h, settings.relaxation, nullptr};
   sweep.chebyshevRho = settings.chebyshevRho;
   // A registered family that did not opt into Jacobi's acceleration turns it off for every
@@ -238,6 +242,7 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
   for (const SweepOp& op : plan.ops) {
     runSweepOp(op, plan, constraints, sweep, kind);
     if (!op.endsRound) continue;
+    if (anyPressure) projectPressure(pressure, particles, context.h);
     if (anyContacts) report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
     // The repeated cascade, from the positions the fine sweeps left.
     if (++roundsDone < plan.rounds && settings.cascade && settings.cascadeEvery > 0 &&
@@ -245,6 +250,9 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
       runCascade(pools, settings, context, report);
   }
   constraints.forEach([](auto& pool) { bookVertexMultipliers(pool); });
+  if (plan.ops.empty() && anyPressure) projectPressure(pressure, particles, context.h);
+  report.collapsedPressureProjections = pressure.collapsedProjections;
+  pressure.collapsedProjections = 0;
   if (plan.ops.empty() && anyContacts)
     report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
   if (pools.colliders.size() > 0)

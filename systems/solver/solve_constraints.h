@@ -17,6 +17,7 @@
 #include "components/level_hierarchy.h"
 #include "components/objects.h"
 #include "components/particles.h"
+#include "components/pressure_pool.h"
 #include "components/primitive_bvh.h"
 #include "components/primitive_contact_pool.h"
 #include "components/sweep_plan.h"
@@ -57,6 +58,7 @@ struct SolvePools {
   const LevelHierarchies& hierarchies;
   std::span<const ObjectRecord> objects;
   CascadeScratch& cascade;
+  PressurePool& pressure;
 };
 
 // What one solve did, for the profile, the collision report and the repair log.
@@ -67,13 +69,14 @@ struct SolveReport {
   std::size_t incrementalRedetections = 0;  // of which only around the particles off course
   std::size_t colliderRedetections = 0;     // collider contacts found again after a cascade
   std::size_t cascadeProjections = 0;
+  std::uint64_t collapsedPressureProjections = 0;  // gas pressures taken at the least volume
   CrossingReport crossing;
 };
 
 // Resets every multiplier (XPBD's λ lives for one substep) and runs plan.ops on particles.p,
-// projecting the collider contact pool and the primitive contact pool after each round (and once
-// when the plan has no sweeps), so that resting contact is solved with the constraints and not
-// after them.
+// projecting the pressured surfaces, then the collider contact pool and the primitive contact
+// pool, after each round (and once when the plan has no sweeps), so that pressure and resting
+// contact are solved with the constraints and not after them.
 SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
                              const SubstepContext& context);
 
