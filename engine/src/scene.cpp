@@ -190,13 +190,15 @@ struct Rings {
 };
 
 ObjectDef readShape(const Reader& shape, const std::string& folder, Rings& rings) {
-  shape.allowOnly({"grid", "polyline", "icosphere", "tube", "tet_box", "obj", "mesh", "points"});
+  shape.allowOnly(
+      {"grid", "polyline", "icosphere", "tube", "box", "tet_box", "obj", "mesh", "points"});
   int given = 0;
   for (const char* k :
-       {"grid", "polyline", "icosphere", "tube", "tet_box", "obj", "mesh", "points"})
+       {"grid", "polyline", "icosphere", "tube", "box", "tet_box", "obj", "mesh", "points"})
     given += shape.has(k);
   if (given != 1)
-    shape.fail("give exactly one of grid, polyline, icosphere, tube, tet_box, obj, mesh, points");
+    shape.fail(
+        "give exactly one of grid, polyline, icosphere, tube, box, tet_box, obj, mesh, points");
   try {
     if (shape.has("tube")) {
       const Reader t = shape.child("tube");
@@ -248,6 +250,21 @@ ObjectDef readShape(const Reader& shape, const std::string& folder, Rings& rings
       return icosphere(s.vec3("center", Vec3::Zero()),
                        static_cast<Real>(s.number("radius", 0.5, 1e-6, 1e6)),
                        s.integer("subdivisions", 3, 0, 7));
+    }
+    if (shape.has("box")) {
+      const Reader b = shape.child("box");
+      b.allowOnly({"center", "size", "cells", "turn"});
+      ObjectDef def = boxSurface(b.vec3("center", Vec3(0, 1, 0)), b.vec3("size", Vec3(1, 1, 1)),
+                                 b.integer("cells", 2, 1, 512));
+      // A turn about the vertical axis through the centre, in degrees.
+      const double turn = b.number("turn", 0, -360, 360) * std::numbers::pi / 180;
+      const Vec3 center = b.vec3("center", Vec3(0, 1, 0));
+      const Real c = static_cast<Real>(std::cos(turn)), s = static_cast<Real>(std::sin(turn));
+      for (Vec3& v : def.vertices) {
+        const Vec3 d = v - center;
+        v = center + Vec3(c * d.x() + s * d.z(), d.y(), -s * d.x() + c * d.z());
+      }
+      return def;
     }
     if (shape.has("tet_box")) {
       const Reader b = shape.child("tet_box");
@@ -454,7 +471,7 @@ SceneObject readObject(const Reader& o, const std::string& folder,
     m.allowOnly({"mass", "stretch_compliance", "compression_compliance", "bend_compliance",
                  "shear_compliance", "twist_compliance", "volume_compliance", "damping",
                  "thickness", "tethers", "collide", "self_collision", "friction", "static_friction",
-                 "restitution", "stickiness", "pressure"});
+                 "restitution", "stickiness", "pressure", "rigidity"});
     Material& mat = out.def.material;
     mat.mass = static_cast<Real>(m.number("mass", mat.mass, 1e-9, 1e9));
     mat.stretchCompliance =
@@ -479,6 +496,9 @@ SceneObject readObject(const Reader& o, const std::string& folder,
         m.number("static_friction", std::max(mat.staticFriction, mat.friction), 0, 1e3));
     mat.restitution = static_cast<Real>(m.number("restitution", mat.restitution, 0, 1));
     mat.stickiness = static_cast<Real>(m.number("stickiness", mat.stickiness, 0, 1e3));
+    mat.rigidity = static_cast<Real>(m.number("rigidity", mat.rigidity, 0, 1));
+    if (mat.rigidity > 0 && out.kind == ObjectKind::Collider)
+      m.fail(m.at("rigidity"), "a collider is moved by its motion, not by rigidity");
     if (m.has("pressure")) {
       if (out.kind != ObjectKind::Cloth)
         m.fail(m.at("pressure"), "only a cloth (a closed surface) can have pressure");

@@ -163,6 +163,49 @@ ObjectDef tube(const TubeSpec& spec) {
   return def;
 }
 
+ObjectDef boxSurface(const Vec3& center, const Vec3& size, int cells) {
+  require(size.allFinite() && size.minCoeff() > 0, "box size must be positive and finite");
+  require(center.allFinite(), "box center must be finite");
+  require(cells >= 1 && cells <= 512, "box cells must be in [1, 512]");
+  ObjectDef def;
+  // Lattice points (i, j, k) ∈ [0, cells]³ on the surface, numbered as first met.
+  std::vector<Index> number(std::size_t(cells + 1) * (cells + 1) * (cells + 1), ~Index(0));
+  auto vertex = [&](const std::array<int, 3>& c) {
+    Index& n = number[(std::size_t(c[2]) * (cells + 1) + c[1]) * (cells + 1) + c[0]];
+    if (n == ~Index(0)) {
+      n = static_cast<Index>(def.vertices.size());
+      const Vec3 u(Real(c[0]) / cells - Real(0.5), Real(c[1]) / cells - Real(0.5),
+                   Real(c[2]) / cells - Real(0.5));
+      def.vertices.push_back(center + u.cwiseProduct(size));
+    }
+    return n;
+  };
+  // Face normal to axis a at side 0 or cells; (b, c) the other axes in cyclic order, so that
+  // e_b × e_c = e_a: a quad (u, w) → (u + 1, w) → (u + 1, w + 1) runs counterclockwise seen from
+  // +a, which faces out at the far side and in at the near one.
+  for (int a = 0; a < 3; ++a)
+    for (int side : {0, cells}) {
+      const int b = (a + 1) % 3, c = (a + 2) % 3;
+      for (int u = 0; u < cells; ++u)
+        for (int w = 0; w < cells; ++w) {
+          auto at = [&](int du, int dw) {
+            std::array<int, 3> p{};
+            p[a] = side, p[b] = u + du, p[c] = w + dw;
+            return vertex(p);
+          };
+          const Index q0 = at(0, 0), q1 = at(1, 0), q2 = at(1, 1), q3 = at(0, 1);
+          if (side == cells) {
+            def.triangles.push_back({q0, q1, q2});
+            def.triangles.push_back({q0, q2, q3});
+          } else {
+            def.triangles.push_back({q0, q2, q1});
+            def.triangles.push_back({q0, q3, q2});
+          }
+        }
+    }
+  return def;
+}
+
 ObjectDef tetBox(const Vec3& center, const Vec3& size, const std::array<int, 3>& cells) {
   require(size.allFinite() && size.minCoeff() > 0, "box size must be positive and finite");
   require(center.allFinite(), "box center must be finite");

@@ -169,9 +169,10 @@ void StepGraph::runStage(int stage) {
       break;
     }
     case kSolve: {
-      SolvePools pools{s.constraints,       s.particles,  s.plan,       s.contacts, s.colliders,
-                       s.primitiveContacts, s.candidates, s.primitives, s.bvh,      s.hierarchies,
-                       s.objects,           s.cascade,    s.pressure};
+      SolvePools pools{s.constraints, s.particles,         s.plan,       s.contacts,
+                       s.colliders,   s.primitiveContacts, s.candidates, s.primitives,
+                       s.bvh,         s.hierarchies,       s.objects,    s.cascade,
+                       s.pressure,    s.shapeMatching};
       SolveReport solve;
       profile.solve +=
           timed([&] { solve = solveConstraints(pools, solveSettingsOf(s.solver), c); });

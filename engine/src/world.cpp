@@ -24,6 +24,7 @@
 #include "systems/setup/build_hierarchy.h"
 #include "systems/setup/sweep_schedule.h"
 #include "systems/solver/pressure.h"
+#include "systems/solver/shape_matching.h"
 
 namespace nucleon {
 
@@ -71,6 +72,10 @@ void validateCommon(const ObjectDef& def, const std::string& what, std::size_t f
   require(std::isfinite(m.stickiness) && m.stickiness >= 0 && m.stickiness < 1e3,
           what + ": stickiness must be finite and non-negative");
   require(finite(def.velocity), what + ": velocity must be finite");
+  require(std::isfinite(m.rigidity) && m.rigidity >= 0 && m.rigidity <= 1,
+          what + ": rigidity must be in [0, 1]");
+  require(m.rigidity == 0 || (def.pins.empty() && def.pinGroups.empty()),
+          what + ": an object with rigidity can have no pins (a pinned rigid body is a collider)");
   const Pressure& pressure = m.pressure;
   if (pressure.mode != PressureMode::Off) {
     require(std::isfinite(pressure.ambient) && pressure.ambient > 0 && pressure.ambient <= 1e9,
@@ -287,6 +292,8 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
   validateCommon(def, what, s.constraints.familyCount());
   require(def.material.pressure.mode == PressureMode::Off || kind == ObjectKind::Cloth,
           what + ": only a cloth can have pressure");
+  require(def.material.rigidity == 0 || kind != ObjectKind::Collider,
+          what + ": a collider is moved by its motion, not by rigidity");
   validateMotion(def, kind, what);
   validatePinGroups(def, kind, what);
   const std::size_t n = def.vertices.size();
@@ -400,6 +407,9 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
   if (def.material.pressure.mode != PressureMode::Off) {
     appendPressureSurface(s.pressure, record, static_cast<std::uint32_t>(s.objects.size()));
   }
+  if (def.material.rigidity > 0)
+    appendShapeMatchCluster(s.shapeMatching, record, static_cast<std::uint32_t>(s.objects.size()),
+                            particles);
 
   // Tethers hold free vertices to animated pins too: a tether only bounds the distance to its pin
   // by the rest path length along the mesh, which an inextensible cloth keeps wherever the pin is.

@@ -20,6 +20,7 @@
 #include "components/pressure_pool.h"
 #include "components/primitive_bvh.h"
 #include "components/primitive_contact_pool.h"
+#include "components/shape_match_pool.h"
 #include "components/sweep_plan.h"
 #include "nucleon/world.h"
 #include "systems/dynamics/impact_travel.h"
@@ -63,6 +64,8 @@ struct WorldState {
   // Closed cloth surfaces with pressure (static, appended with their objects; the gas amounts
   // carry from substep to substep).
   PressurePool pressure;
+  // Objects with rigidity: one shape matching cluster each (static, appended with them).
+  ShapeMatchPool shapeMatching;
   KinematicTracks kinematics;  // static lifetime: one track per animated collider or pin group
   // The smallest contact distance between a primitive of an animated object (collider or pinned)
   // and a primitive that moves (0: no such pair), rebuilt with the derived tables: the default

@@ -101,6 +101,14 @@ struct Material {
   Real stickiness = 0;
   // Cloth only: the pressure of the volume its closed surface encloses (off by default).
   Pressure pressure;
+  // Rigidity in [0, 1] (Nucleus's rigidity and deform resistance): every particle is pulled
+  // towards the object's rest shape moved rigidly to fit where the object is (shape matching,
+  // Müller et al. 2005), closing this share of the gap in each substep. 1: a rigid body, exactly
+  // rigid after every projection (a box, an OBJ mesh, a sphere that collides with everything
+  // through its simplices, with the object's lumped masses for its inertia); 0: off. The object
+  // may have no pins (a pinned rigid body is a collider). Collider contacts, projected after it
+  // in each round, may leave a rigid body off its rigid shape by as little as the sweeps allow.
+  Real rigidity = 0;
 };
 
 }  // namespace nucleon

@@ -48,6 +48,10 @@ struct TubeSpec {
 };
 ObjectDef tube(const TubeSpec& spec);
 
+// The closed surface of a box (cloth triangles facing outwards), each face a grid of `cells` ×
+// `cells` squares split along one diagonal, the faces' shared edges welded: (cells + 1)³ − (cells −
+// 1)³ vertices. A rigid box is this with Material::rigidity 1.
+ObjectDef boxSurface(const Vec3& center, const Vec3& size, int cells);
 // A box of cells[0]×cells[1]×cells[2] cubes, each split into six positively oriented tets that
 // share the cube's main diagonal (a conforming mesh: neighbouring cubes agree on shared faces).
 ObjectDef tetBox(const Vec3& center, const Vec3& size, const std::array<int, 3>& cells);

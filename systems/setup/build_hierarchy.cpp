@@ -335,7 +335,10 @@ void buildLevelHierarchies(LevelHierarchies& out, const std::vector<ObjectRecord
     const ObjectRecord& object = objects[o];
     const bool deformable = object.kind == ObjectKind::Cloth || object.kind == ObjectKind::Rope ||
                             object.kind == ObjectKind::Solid;
-    if (!deformable || object.complex.edges.size() == 0) continue;
+    // A rigid body (rigidity 1) is held rigid by shape matching after every round: its edges
+    // stay at rest length, and coarse corrections prolonged to its particles would only move its
+    // momentum (a spinning rigid ball gained 1% of it in half a second).
+    if (!deformable || object.complex.edges.size() == 0 || object.material.rigidity >= 1) continue;
     out.objects.push_back(buildObjectHierarchy(object, static_cast<Index>(o), particles, settings));
   }
   out.coarseEdges = 0;

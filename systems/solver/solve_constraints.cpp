@@ -11,6 +11,7 @@
 #include "systems/solver/family_pools.h"
 #include "systems/solver/multigrid_cascade.h"
 #include "systems/solver/pressure.h"
+#include "systems/solver/shape_matching.h"
 #include "systems/solver/tether_sweep.h"
 
 namespace nucleon {
@@ -227,6 +228,7 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
   constraints.forEach([](auto& pool) { resetMultipliers(pool); });
   PressurePool& pressure = pools.pressure;
   const bool anyPressure = pressure.size() > 0;
+  const bool anyShapes = pools.shapeMatching.size() > 0;
   if (anyPressure) startPressureSubstep(pressure, context.time, context.h);
   SweepContext sweep{particles, context.h, settings.relaxation, nullptr};
   sweep.chebyshevRho = settings.chebyshevRho;
@@ -243,6 +245,7 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
     runSweepOp(op, plan, constraints, sweep, kind);
     if (!op.endsRound) continue;
     if (anyPressure) projectPressure(pressure, particles, context.h);
+    if (anyShapes) projectShapeMatching(pools.shapeMatching, particles, std::max(plan.rounds, 1));
     if (anyContacts) report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
     // The repeated cascade, from the positions the fine sweeps left.
     if (++roundsDone < plan.rounds && settings.cascade && settings.cascadeEvery > 0 &&
@@ -251,6 +254,7 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
   }
   constraints.forEach([](auto& pool) { bookVertexMultipliers(pool); });
   if (plan.ops.empty() && anyPressure) projectPressure(pressure, particles, context.h);
+  if (plan.ops.empty() && anyShapes) projectShapeMatching(pools.shapeMatching, particles, 1);
   report.collapsedPressureProjections = pressure.collapsedProjections;
   pressure.collapsedProjections = 0;
   if (plan.ops.empty() && anyContacts)

@@ -20,6 +20,7 @@
 #include "components/pressure_pool.h"
 #include "components/primitive_bvh.h"
 #include "components/primitive_contact_pool.h"
+#include "components/shape_match_pool.h"
 #include "components/sweep_plan.h"
 #include "nucleon/solver_settings.h"
 #include "systems/collision/primitive_contacts.h"
@@ -59,6 +60,7 @@ struct SolvePools {
   std::span<const ObjectRecord> objects;
   CascadeScratch& cascade;
   PressurePool& pressure;
+  ShapeMatchPool& shapeMatching;
 };
 
 // What one solve did, for the profile, the collision report and the repair log.
@@ -74,9 +76,9 @@ struct SolveReport {
 };
 
 // Resets every multiplier (XPBD's λ lives for one substep) and runs plan.ops on particles.p,
-// projecting the pressured surfaces, then the collider contact pool and the primitive contact
-// pool, after each round (and once when the plan has no sweeps), so that pressure and resting
-// contact are solved with the constraints and not after them.
+// projecting the pressured surfaces, the shape matching clusters, then the collider contact pool
+// and the primitive contact pool, after each round (and once when the plan has no sweeps), so that
+// pressure and resting contact are solved with the constraints and not after them.
 SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
                              const SubstepContext& context);
 
