@@ -343,6 +343,10 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
       {"state_hash", hex16(world.stateHash())},
       {"warnings", warnings},
       {"per_frame", perFrame}};
+  // Attachments made and broken over the run.
+  if (world.attachmentCount() > 0)
+    stats["attachments"] = {{"total", world.attachmentCount()},
+                            {"broken", world.brokenAttachments()}};
   // Each pressured cloth's state at the end (World::pressure).
   for (std::size_t i = 0; i < world.objectCount(); ++i) {
     const ObjectId id = world.objectAt(i);

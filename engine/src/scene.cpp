@@ -564,6 +564,89 @@ SceneObject readObject(const Reader& o, const std::string& folder,
   return out;
 }
 
+// An object of the scene by name: its index in `objects`.
+std::size_t objectNamed(const Reader& r, const char* key, const std::vector<SceneObject>& objects) {
+  const std::string name = r.string(key, "");
+  if (!r.has(key)) r.fail("needs '" + std::string(key) + "', the name of an object");
+  for (std::size_t i = 0; i < objects.size(); ++i)
+    if (objects[i].def.name == name) return i;
+  r.fail(r.at(key), "no object is named '" + name + "'");
+}
+
+Index vertexOf(const Reader& r, const Json& v, const std::string& where,
+               const SceneObject& object) {
+  const Index vertex = r.toIndex(v, where);
+  if (vertex >= object.def.vertices.size())
+    r.fail(where, "vertex " + std::to_string(vertex) + " is out of range ('" + object.def.name +
+                      "' has " + std::to_string(object.def.vertices.size()) + ")");
+  return vertex;
+}
+
+SceneAttachment readAttachment(const Reader& r, const std::vector<SceneObject>& objects) {
+  r.allowOnly({"kind", "object", "vertex", "vertices", "target", "target_vertex", "triangle",
+               "weights", "motion", "distance", "compliance", "strength", "within"});
+  SceneAttachment out;
+  Attachment& a = out.attachment;
+  const std::string kind = r.string("kind", "");
+  out.object = objectNamed(r, "object", objects);
+  const SceneObject& object = objects[out.object];
+  a.distance = static_cast<Real>(r.number("distance", 0, kind == "slide" ? -1e6 : 0, 1e6));
+  a.compliance = static_cast<Real>(r.number("compliance", 0, 0, 1e6));
+  a.strength = static_cast<Real>(r.number("strength", 0, 0, 1e12));
+  auto needTarget = [&] {
+    out.target = objectNamed(r, "target", objects);
+    return &objects[out.target];
+  };
+  auto oneVertex = [&] {
+    if (!r.has("vertex")) r.fail("needs 'vertex', a vertex index of the object");
+    a.vertex = vertexOf(r, r.raw("vertex"), r.at("vertex"), object);
+  };
+  // "vertex": one; or "vertices": a list, or "all", each attached alike.
+  auto vertexOrList = [&] {
+    if (!r.has("vertices")) return oneVertex();
+    if (r.has("vertex")) r.fail(r.at("vertices"), "give either vertex or vertices");
+    const Json& v = r.raw("vertices");
+    if (v.is_string() && v.get<std::string>() == "all") {
+      for (Index i = 0; i < object.def.vertices.size(); ++i) out.vertices.push_back(i);
+      return;
+    }
+    if (!v.is_array() || v.empty())
+      r.fail(r.at("vertices"), "expected a list of vertex indices or \"all\"");
+    for (const Json& x : v) out.vertices.push_back(vertexOf(r, x, r.at("vertices"), object));
+  };
+  if (kind == "weld") {
+    needTarget();
+    out.weld = true;
+    if (!r.has("within")) r.fail("needs 'within', the largest distance (m) of a welded pair");
+    out.within = static_cast<Real>(r.number("within", 0, 0, 1e3));
+  } else if (kind == "point") {
+    a.kind = AttachmentKind::PointToPoint;
+    oneVertex();
+    const SceneObject* target = needTarget();
+    if (!r.has("target_vertex")) r.fail("needs 'target_vertex'");
+    a.targetVertex = vertexOf(r, r.raw("target_vertex"), r.at("target_vertex"), *target);
+  } else if (kind == "surface" || kind == "slide") {
+    a.kind = kind == "surface" ? AttachmentKind::PointToSurface : AttachmentKind::SlideOnSurface;
+    vertexOrList();
+    const SceneObject* target = needTarget();
+    if (!r.has("triangle") || !r.raw("triangle").is_array() || r.raw("triangle").size() != 3)
+      r.fail(r.at("triangle"), "expected three vertex indices of the target");
+    for (int k = 0; k < 3; ++k)
+      a.triangle[k] = vertexOf(r, r.raw("triangle")[k], r.at("triangle"), *target);
+    const auto w = r.numbers<3>("weights", {1.0 / 3, 1.0 / 3, 1.0 / 3}, -1e3, 1e3);
+    if (std::abs(w[0] + w[1] + w[2] - 1) > 1e-4) r.fail(r.at("weights"), "must sum to 1");
+    a.weights = Vec3(static_cast<Real>(w[0]), static_cast<Real>(w[1]), static_cast<Real>(w[2]));
+  } else if (kind == "transform") {
+    a.kind = AttachmentKind::PointToTransform;
+    vertexOrList();
+    if (!r.has("motion")) r.fail("needs 'motion', the handle's keyframes");
+    a.motion = readMotion(r.child("motion"));
+  } else {
+    r.fail(r.at("kind"), "expected point, surface, slide, transform or weld, got '" + kind + "'");
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string assetsFolder() {
@@ -590,7 +673,7 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
   }
   const Reader top(j, "", label);
   top.allowOnly({"name", "description", "frames", "fps", "threads", "gravity", "ground", "planes",
-                 "spheres", "solver", "objects"});
+                 "spheres", "solver", "objects", "attachments", "exclude_collisions"});
   Scene scene;
   scene.path = label;
   scene.name = top.string("name", fs::path(label).stem().string());
@@ -678,6 +761,34 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     scene.objects.push_back(
         readObject(Reader(j.at("objects")[i], "objects[" + std::to_string(i) + "]", label), folder,
                    scene.objects));
+  if (top.has("attachments")) {
+    const Json& list = j.at("attachments");
+    if (!list.is_array()) top.fail("attachments", "expected a list of attachments");
+    for (std::size_t i = 0; i < list.size(); ++i)
+      scene.attachments.push_back(readAttachment(
+          Reader(list[i], "attachments[" + std::to_string(i) + "]", label), scene.objects));
+  }
+  if (top.has("exclude_collisions")) {
+    // [["a", "b"], …]: pairs of object names.
+    const Json& list = j.at("exclude_collisions");
+    if (!list.is_array())
+      top.fail("exclude_collisions", "expected a list of pairs of object names");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const std::string where = "exclude_collisions[" + std::to_string(i) + "]";
+      if (!list[i].is_array() || list[i].size() != 2 || !list[i][0].is_string() ||
+          !list[i][1].is_string())
+        top.fail(where, "expected two object names");
+      std::array<std::size_t, 2> pair{};
+      for (int k = 0; k < 2; ++k) {
+        const std::string name = list[i][k].get<std::string>();
+        auto found = std::find_if(scene.objects.begin(), scene.objects.end(),
+                                  [&](const SceneObject& o) { return o.def.name == name; });
+        if (found == scene.objects.end()) top.fail(where, "no object is named '" + name + "'");
+        pair[k] = static_cast<std::size_t>(found - scene.objects.begin());
+      }
+      scene.excludedCollisions.push_back(pair);
+    }
+  }
   return scene;
 }
 
@@ -718,6 +829,22 @@ World buildWorld(const Scene& scene) {
           world.addCollider(o.def);
           break;
       }
+    }
+    for (const auto& [a, b] : scene.excludedCollisions)
+      world.excludeCollisions(world.objectAt(a), world.objectAt(b));
+    for (const SceneAttachment& entry : scene.attachments) {
+      Attachment a = entry.attachment;
+      a.object = world.objectAt(entry.object);
+      a.target = world.objectAt(entry.target);
+      if (entry.weld)
+        world.weld(a.object, a.target, entry.within, a.compliance, a.strength, a.distance);
+      else if (entry.vertices.empty())
+        world.addAttachment(a);
+      else
+        for (Index v : entry.vertices) {
+          a.vertex = v;
+          world.addAttachment(a);
+        }
     }
   } catch (const std::exception& e) {
     throw SceneError(scene.path + ": " + e.what());

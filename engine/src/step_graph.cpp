@@ -172,7 +172,7 @@ void StepGraph::runStage(int stage) {
       SolvePools pools{s.constraints, s.particles,         s.plan,       s.contacts,
                        s.colliders,   s.primitiveContacts, s.candidates, s.primitives,
                        s.bvh,         s.hierarchies,       s.objects,    s.cascade,
-                       s.pressure,    s.shapeMatching};
+                       s.pressure,    s.shapeMatching,     s.attachments};
       SolveReport solve;
       profile.solve +=
           timed([&] { solve = solveConstraints(pools, solveSettingsOf(s.solver), c); });

@@ -23,6 +23,7 @@
 #include "systems/setup/build_derived_tables.h"
 #include "systems/setup/build_hierarchy.h"
 #include "systems/setup/sweep_schedule.h"
+#include "systems/solver/attachments.h"
 #include "systems/solver/pressure.h"
 #include "systems/solver/shape_matching.h"
 
@@ -973,6 +974,102 @@ Measures World::measure() const {
 
 bool World::hasPressure(ObjectId id) const {
   return lookup(*impl_, id).material.pressure.mode != PressureMode::Off;
+}
+
+std::size_t World::addAttachment(const Attachment& a) {
+  WorldState& s = impl_->state;
+  const ObjectRecord& object = lookup(*impl_, a.object);
+  const std::string what =
+      std::string("attachment (") + toString(a.kind) + ") of '" + object.name + "'";
+  require(a.vertex < object.particleCount, what + ": vertex " + std::to_string(a.vertex) +
+                                               " is out of range (the object has " +
+                                               std::to_string(object.particleCount) + ")");
+  require(std::isfinite(a.distance) &&
+              (a.distance >= 0 || a.kind == AttachmentKind::SlideOnSurface) &&
+              std::isfinite(a.compliance) && a.compliance >= 0 && std::isfinite(a.strength) &&
+              a.strength >= 0,
+          what + ": distance (but a slide's), compliance and strength must be finite and " +
+              "non-negative");
+  std::array<Index, 4> ids;
+  ids.fill(object.firstParticle + a.vertex);
+  if (a.kind == AttachmentKind::PointToPoint) {
+    const ObjectRecord& target = lookup(*impl_, a.target);
+    require(a.targetVertex < target.particleCount,
+            what + ": target vertex " + std::to_string(a.targetVertex) + " is out of range");
+    ids[1] = target.firstParticle + a.targetVertex;
+    require(ids[1] != ids[0], what + ": a particle cannot be attached to itself");
+  } else if (a.kind == AttachmentKind::PointToSurface || a.kind == AttachmentKind::SlideOnSurface) {
+    const ObjectRecord& target = lookup(*impl_, a.target);
+    for (int k = 0; k < 3; ++k) {
+      require(a.triangle[k] < target.particleCount,
+              what + ": triangle vertex " + std::to_string(a.triangle[k]) + " is out of range");
+      ids[k + 1] = target.firstParticle + a.triangle[k];
+      require(ids[k + 1] != ids[0], what + ": a particle cannot be attached to its own triangle");
+    }
+    require(a.weights.allFinite() && std::abs(double(a.weights.sum()) - 1) < 1e-4,
+            what + ": the weights must be finite and sum to 1");
+  } else {
+    validateMotionFields(a.motion, what + " motion");
+  }
+  AttachmentPool& pool = s.attachments;
+  pool.kind.push_back(a.kind);
+  pool.particles.push_back(ids);
+  pool.weights.push_back(a.weights);
+  pool.distance.push_back(a.distance);
+  pool.compliance.push_back(a.compliance);
+  pool.strength.push_back(a.strength);
+  pool.lambda.push_back(0);
+  pool.broken.push_back(0);
+  pool.rest.push_back(s.particles.restPosition[ids[0]]);
+  pool.target.push_back(s.particles.x[ids[0]]);
+  if (a.kind == AttachmentKind::PointToTransform) {
+    pool.track.push_back(static_cast<Index>(pool.tracks.size()));
+    pool.tracks.push_back(makeTrack(a.motion, a.object.index1 - 1, ids[0], 1));
+  } else {
+    pool.track.push_back(0);
+  }
+  return pool.size() - 1;
+}
+
+std::size_t World::weld(ObjectId a, ObjectId b, Real within, Real compliance, Real strength,
+                        Real distance) {
+  const ObjectRecord& first = lookup(*impl_, a);
+  const ObjectRecord& second = lookup(*impl_, b);
+  require(std::isfinite(within) && within >= 0, "weld: `within` must be finite and non-negative");
+  const auto& x = impl_->state.particles.x;
+  std::size_t made = 0;
+  for (Index i = 0; i < first.particleCount; ++i) {
+    const Vec3& p = x[first.firstParticle + i];
+    Index nearest = 0;
+    Real best = std::numeric_limits<Real>::infinity();
+    for (Index j = 0; j < second.particleCount; ++j) {
+      const Real d = (x[second.firstParticle + j] - p).norm();
+      if (d < best && second.firstParticle + j != first.firstParticle + i) best = d, nearest = j;
+    }
+    if (!(best <= within)) continue;
+    Attachment weld;
+    weld.object = a;
+    weld.vertex = i;
+    weld.target = b;
+    weld.targetVertex = nearest;
+    weld.compliance = compliance;
+    weld.strength = strength;
+    weld.distance = distance;
+    addAttachment(weld);
+    ++made;
+  }
+  return made;
+}
+
+std::size_t World::attachmentCount() const {
+  return impl_->state.attachments.size();
+}
+bool World::attachmentBroken(std::size_t index) const {
+  require(index < impl_->state.attachments.size(), "attachment index out of range");
+  return impl_->state.attachments.broken[index] != 0;
+}
+std::size_t World::brokenAttachments() const {
+  return impl_->state.attachments.brokenCount;
 }
 
 PressureReading World::pressure(ObjectId id) const {

@@ -8,6 +8,7 @@
 
 #include <tbb/task_arena.h>
 
+#include "components/attachment_pool.h"
 #include "components/candidate_pairs.h"
 #include "components/collider_pool.h"
 #include "components/collision_primitives.h"
@@ -66,6 +67,9 @@ struct WorldState {
   PressurePool pressure;
   // Objects with rigidity: one shape matching cluster each (static, appended with them).
   ShapeMatchPool shapeMatching;
+  // Attachments between objects, to surfaces and to handles (static apart from their multipliers
+  // and broken flags).
+  AttachmentPool attachments;
   KinematicTracks kinematics;  // static lifetime: one track per animated collider or pin group
   // The smallest contact distance between a primitive of an animated object (collider or pinned)
   // and a primitive that moves (0: no such pair), rebuilt with the derived tables: the default

@@ -21,6 +21,17 @@ struct SceneObject {
   ObjectDef def;
 };
 
+// An entry of the scene's "attachments" list: one attachment, a weld (every vertex of `object`
+// within `within` of a vertex of `target`) or a handle on several vertices (one PointToTransform
+// attachment per vertex of `vertices`). Objects by their index in Scene::objects.
+struct SceneAttachment {
+  Attachment attachment;  // its object and target ids are set when the world is built
+  std::size_t object = 0, target = 0;
+  std::vector<Index> vertices;
+  bool weld = false;
+  Real within = 0;
+};
+
 // The solver settings a scene file starts from: SolverSettings' own, with the multigrid backend
 // and two substeps.
 inline SolverSettings sceneSolverDefaults() {
@@ -50,6 +61,10 @@ struct Scene {
   // (bench/results/2core-AMD-EPYC/torture.md, "A large sheet at the default thickness").
   SolverSettings solver = sceneSolverDefaults();
   std::vector<SceneObject> objects;
+  std::vector<SceneAttachment> attachments;
+  // Pairs of objects (indices in `objects`; the same one twice: its self-collision) that never
+  // collide with each other.
+  std::vector<std::array<std::size_t, 2>> excludedCollisions;
 };
 
 // Reads and validates a scene file. Meshes named in it are looked up relative to the scene's

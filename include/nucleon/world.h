@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "nucleon/attachments.h"
 #include "nucleon/colliders.h"
 #include "nucleon/errors.h"
 #include "nucleon/material.h"
@@ -142,6 +143,21 @@ class World {
   const CollisionReport& collisionReport() const;
   // The two objects (the same one twice: its self-collision) never collide with each other.
   void excludeCollisions(ObjectId a, ObjectId b);
+
+  // Attachments (nucleon/attachments.h). addAttachment validates one (objects valid, vertex
+  // indices in range, weights finite and summing to 1, non-negative finite distance, compliance
+  // and strength, a motion's keyframes valid) and throws std::invalid_argument otherwise; it
+  // returns the attachment's index. weld joins every vertex of `a` to the nearest vertex of `b`
+  // within `within` m (adjacent borders, a seam) with PointToPoint attachments at `distance` (0:
+  // coincident; the two objects' triangles then touch along the seam, and the exact intersection
+  // count, which knows no welds, counts them) and returns how many. attachmentBroken says whether
+  // attachment i has broken; brokenAttachments counts them.
+  std::size_t addAttachment(const Attachment& attachment);
+  std::size_t weld(ObjectId a, ObjectId b, Real within, Real compliance = 0, Real strength = 0,
+                   Real distance = 0);
+  std::size_t attachmentCount() const;
+  bool attachmentBroken(std::size_t index) const;
+  std::size_t brokenAttachments() const;
   const StepProfile& profile() const;
   void resetProfile();
   // 64-bit FNV-1a hash of every particle's position and velocity bytes.

@@ -7,6 +7,7 @@
 #include "systems/collision/broad_phase.h"
 #include "systems/collision/particle_contacts.h"
 #include "systems/collision/primitive_contacts.h"
+#include "systems/solver/attachments.h"
 #include "systems/solver/constraint_sweeps.h"
 #include "systems/solver/family_pools.h"
 #include "systems/solver/multigrid_cascade.h"
@@ -229,6 +230,8 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
   PressurePool& pressure = pools.pressure;
   const bool anyPressure = pressure.size() > 0;
   const bool anyShapes = pools.shapeMatching.size() > 0;
+  const bool anyAttachments = pools.attachments.size() > 0;
+  if (anyAttachments) startAttachmentSubstep(pools.attachments, context.endTime);
   if (anyPressure) startPressureSubstep(pressure, context.time, context.h);
   SweepContext sweep{particles, context.h, settings.relaxation, nullptr};
   sweep.chebyshevRho = settings.chebyshevRho;
@@ -245,6 +248,7 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
     runSweepOp(op, plan, constraints, sweep, kind);
     if (!op.endsRound) continue;
     if (anyPressure) projectPressure(pressure, particles, context.h);
+    if (anyAttachments) projectAttachments(pools.attachments, particles, context.h);
     if (anyShapes) projectShapeMatching(pools.shapeMatching, particles, std::max(plan.rounds, 1));
     if (anyContacts) report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
     // The repeated cascade, from the positions the fine sweeps left.
@@ -254,7 +258,10 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
   }
   constraints.forEach([](auto& pool) { bookVertexMultipliers(pool); });
   if (plan.ops.empty() && anyPressure) projectPressure(pressure, particles, context.h);
+  if (plan.ops.empty() && anyAttachments)
+    projectAttachments(pools.attachments, particles, context.h);
   if (plan.ops.empty() && anyShapes) projectShapeMatching(pools.shapeMatching, particles, 1);
+  if (anyAttachments) report.brokenAttachments = breakAttachments(pools.attachments, context.h);
   report.collapsedPressureProjections = pressure.collapsedProjections;
   pressure.collapsedProjections = 0;
   if (plan.ops.empty() && anyContacts)

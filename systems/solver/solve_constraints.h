@@ -9,6 +9,7 @@
 #include <span>
 #include <vector>
 
+#include "components/attachment_pool.h"
 #include "components/candidate_pairs.h"
 #include "components/collider_pool.h"
 #include "components/collision_primitives.h"
@@ -61,6 +62,7 @@ struct SolvePools {
   CascadeScratch& cascade;
   PressurePool& pressure;
   ShapeMatchPool& shapeMatching;
+  AttachmentPool& attachments;
 };
 
 // What one solve did, for the profile, the collision report and the repair log.
@@ -72,13 +74,15 @@ struct SolveReport {
   std::size_t colliderRedetections = 0;     // collider contacts found again after a cascade
   std::size_t cascadeProjections = 0;
   std::uint64_t collapsedPressureProjections = 0;  // gas pressures taken at the least volume
+  std::size_t brokenAttachments = 0;               // attachments whose force passed their strength
   CrossingReport crossing;
 };
 
 // Resets every multiplier (XPBD's λ lives for one substep) and runs plan.ops on particles.p,
-// projecting the pressured surfaces, the shape matching clusters, then the collider contact pool
-// and the primitive contact pool, after each round (and once when the plan has no sweeps), so that
-// pressure and resting contact are solved with the constraints and not after them.
+// projecting the pressured surfaces, the attachments, the shape matching clusters, then the
+// collider contact pool and the primitive contact pool, after each round (and once when the plan
+// has no sweeps), so that pressure and resting contact are solved with the constraints and not
+// after them.
 SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
                              const SubstepContext& context);
 
