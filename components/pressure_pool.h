@@ -13,7 +13,7 @@
 
 namespace nucleon {
 
-// Surface vertices per block of the volume's parallel sums.
+// Surface vertices (and triangles) per block of the volume's parallel passes.
 constexpr std::size_t kPressureBlock = 1024;
 // The least volume, as a share of the rest volume, at which a gas's pressure is evaluated.
 constexpr double kMinPressureVolume = 0.01;
@@ -26,14 +26,19 @@ struct PressurePool {
   std::vector<double> gas;            // c·M (Pa·m³), Gas mode
   std::vector<double> lambda;         // the volume constraint's multiplier this substep (Pa·s²)
   // The surface's vertices (global particle indices) are vertices[vertexBegin[s] …
-  // vertexBegin[s + 1]); vertex k's triangles contribute (x_a × x_b)/6 to ∂V/∂x_k for each
-  // wing (a, b) in wings[wingBegin[k] … wingBegin[k + 1]): the two other corners of a triangle
-  // in its winding order after k. The volume is Σ_k x_k · ∂V/∂x_k / 3.
+  // vertexBegin[s + 1]) and its triangles triangles[triangleBegin[s] … triangleBegin[s + 1]).
+  // Vertex k's triangles are incident[incidentBegin[k] … incidentBegin[k + 1]] (indices into
+  // `triangles`): ∂V/∂x_k is a third of the sum of their area vectors ½ (x_b − x_a) × (x_c − x_a)
+  // (the one-ring's other terms telescope away on a closed surface), and the volume is
+  // Σ_k x_k · ∂V/∂x_k / 3.
   std::vector<Index> vertexBegin{0};
   std::vector<Index> vertices;
-  std::vector<Index> wingBegin{0};
-  std::vector<std::array<Index, 2>> wings;
-  std::vector<Vec3d> gradient;  // scratch: ∂V/∂x_k of every surface vertex
+  std::vector<Index> triangleBegin{0};
+  std::vector<std::array<Index, 3>> triangles;
+  std::vector<Index> incidentBegin{0};
+  std::vector<Index> incident;
+  std::vector<Vec3d> areaVector;  // scratch: per triangle
+  std::vector<Vec3d> gradient;    // scratch: ∂V/∂x_k of every surface vertex
   // Scratch: per block of kPressureBlock surface vertices, its share of 3V and of Σ w |∂V/∂x|²,
   // summed in block order so the sums do not depend on the thread count.
   std::vector<std::array<double, 2>> blockSums;

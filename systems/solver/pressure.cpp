@@ -13,18 +13,17 @@ namespace {
 // costs more than their work.
 constexpr std::size_t kSerialVertices = 2 * kPressureBlock;
 
-// ∂V/∂x_k of surface vertex k (its index in pool.vertices) at positions x, taken about the point
-// r: the volume of a closed surface, and so its gradient, does not depend on the origin, and
-// coordinates near the surface keep the cross products' precision.
-Vec3d volumeGradient(const PressurePool& pool, std::size_t k, std::span<const Vec3> x,
-                     const Vec3d& r) {
-  Vec3d g = Vec3d::Zero();
-  for (Index i = pool.wingBegin[k]; i < pool.wingBegin[k + 1]; ++i) {
-    const Vec3d a = x[pool.wings[i][0]].cast<double>() - r;
-    const Vec3d b = x[pool.wings[i][1]].cast<double>() - r;
-    g += a.cross(b);
+template <typename Body>
+void forBlocks(std::size_t count, Body&& body) {
+  const std::size_t blocks = (count + kPressureBlock - 1) / kPressureBlock;
+  if (count <= kSerialVertices) {
+    for (std::size_t b = 0; b < blocks; ++b) body(b);
+    return;
   }
-  return g / 6.0;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 1),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t b = range.begin(); b < range.end(); ++b) body(b);
+                    });
 }
 
 struct VolumeSums {
@@ -32,36 +31,42 @@ struct VolumeSums {
   double gradientNorm = 0;  // S = Σ_k w_k ‖∂V/∂x_k‖²
 };
 
-// Fills pool.gradient for surface s at positions x and returns V and S, summed per fixed block
-// in block order (the same bits at any thread count).
+// Fills pool.areaVector and pool.gradient for surface s at positions x and returns V and S, summed
+// per fixed block in block order (the same bits at any thread count).
 VolumeSums gradientAndSums(PressurePool& pool, std::size_t s, std::span<const Vec3> x,
                            std::span<const Real> w) {
-  const std::size_t begin = pool.vertexBegin[s], end = pool.vertexBegin[s + 1];
-  const std::size_t count = end - begin;
+  const std::size_t firstTriangle = pool.triangleBegin[s];
+  const std::size_t triangleCount = pool.triangleBegin[s + 1] - firstTriangle;
+  forBlocks(triangleCount, [&](std::size_t b) {
+    const std::size_t begin = firstTriangle + b * kPressureBlock;
+    const std::size_t end = std::min(firstTriangle + triangleCount, begin + kPressureBlock);
+    for (std::size_t t = begin; t < end; ++t) {
+      const auto& tri = pool.triangles[t];
+      const Vec3d a = x[tri[0]].cast<double>();
+      pool.areaVector[t] = 0.5 * (x[tri[1]].cast<double>() - a).cross(x[tri[2]].cast<double>() - a);
+    }
+  });
+  const std::size_t begin = pool.vertexBegin[s], count = pool.vertexBegin[s + 1] - begin;
+  // About a point of the surface: the volume of a closed surface does not depend on the origin,
+  // and coordinates near the surface keep the dot products' precision.
   const Vec3d r = x[pool.vertices[begin]].cast<double>();
-  const std::size_t blocks = (count + kPressureBlock - 1) / kPressureBlock;
-  auto block = [&](std::size_t b) {
+  forBlocks(count, [&](std::size_t b) {
     double threeVolume = 0, norm = 0;
-    const std::size_t last = std::min(end, begin + (b + 1) * kPressureBlock);
+    const std::size_t last = std::min(begin + count, begin + (b + 1) * kPressureBlock);
     for (std::size_t k = begin + b * kPressureBlock; k < last; ++k) {
-      const Index particle = pool.vertices[k];
-      const Vec3d g = volumeGradient(pool, k, x, r);
+      Vec3d g = Vec3d::Zero();
+      for (Index i = pool.incidentBegin[k]; i < pool.incidentBegin[k + 1]; ++i)
+        g += pool.areaVector[pool.incident[i]];
+      g /= 3.0;
       pool.gradient[k] = g;
+      const Index particle = pool.vertices[k];
       threeVolume += (x[particle].cast<double>() - r).dot(g);
       norm += double(w[particle]) * g.squaredNorm();
     }
     pool.blockSums[b] = {threeVolume, norm};
-  };
-  if (count <= kSerialVertices) {
-    for (std::size_t b = 0; b < blocks; ++b) block(b);
-  } else {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 1),
-                      [&](const tbb::blocked_range<std::size_t>& range) {
-                        for (std::size_t b = range.begin(); b < range.end(); ++b) block(b);
-                      });
-  }
+  });
   VolumeSums sums;
-  for (std::size_t b = 0; b < blocks; ++b) {
+  for (std::size_t b = 0; b < (count + kPressureBlock - 1) / kPressureBlock; ++b) {
     sums.volume += pool.blockSums[b][0];
     sums.gradientNorm += pool.blockSums[b][1];
   }
@@ -86,21 +91,26 @@ void appendPressureSurface(PressurePool& pool, const ObjectRecord& record,
       pool.vertices.push_back(first + v);
     }
   const std::size_t count = pool.vertices.size() - vertexStart;
-  // Wings by counting sort on the vertex: the triangles' order is kept within each vertex.
-  std::vector<Index> wingCount(count + 1, 0);
+  // The triangles in global indices, and each vertex's incident triangles by counting sort on
+  // the vertex (triangle order within a vertex).
+  const std::size_t triangleStart = pool.triangles.size();
   for (const auto& t : record.surface)
-    for (Index v : t) ++wingCount[slot[v] + 1];
-  for (std::size_t k = 0; k < count; ++k) wingCount[k + 1] += wingCount[k];
-  const std::size_t wingStart = pool.wings.size();
-  pool.wings.resize(wingStart + record.surface.size() * 3);
-  std::vector<Index> cursor(wingCount.begin(), wingCount.end() - 1);
+    pool.triangles.push_back({first + t[0], first + t[1], first + t[2]});
+  pool.triangleBegin.push_back(static_cast<Index>(pool.triangles.size()));
+  std::vector<Index> incidentCount(count + 1, 0);
   for (const auto& t : record.surface)
-    for (int c = 0; c < 3; ++c)
-      pool.wings[wingStart + cursor[slot[t[c]]]++] = {first + t[(c + 1) % 3],
-                                                      first + t[(c + 2) % 3]};
+    for (Index v : t) ++incidentCount[slot[v] + 1];
+  for (std::size_t k = 0; k < count; ++k) incidentCount[k + 1] += incidentCount[k];
+  const std::size_t incidentStart = pool.incident.size();
+  pool.incident.resize(incidentStart + record.surface.size() * 3);
+  std::vector<Index> cursor(incidentCount.begin(), incidentCount.end() - 1);
+  for (std::size_t t = 0; t < record.surface.size(); ++t)
+    for (Index v : record.surface[t])
+      pool.incident[incidentStart + cursor[slot[v]]++] = static_cast<Index>(triangleStart + t);
   for (std::size_t k = 0; k < count; ++k)
-    pool.wingBegin.push_back(static_cast<Index>(wingStart + wingCount[k + 1]));
+    pool.incidentBegin.push_back(static_cast<Index>(incidentStart + incidentCount[k + 1]));
   pool.vertexBegin.push_back(static_cast<Index>(pool.vertices.size()));
+  pool.areaVector.resize(pool.triangles.size());
 
   const Pressure& settings = record.material.pressure;
   pool.object.push_back(objectIndex);
@@ -115,12 +125,15 @@ void appendPressureSurface(PressurePool& pool, const ObjectRecord& record,
 }
 
 double pressureVolume(const PressurePool& pool, std::size_t s, std::span<const Vec3> x) {
-  const std::size_t begin = pool.vertexBegin[s], end = pool.vertexBegin[s + 1];
-  const Vec3d r = x[pool.vertices[begin]].cast<double>();
-  double threeVolume = 0;
-  for (std::size_t k = begin; k < end; ++k)
-    threeVolume += (x[pool.vertices[k]].cast<double>() - r).dot(volumeGradient(pool, k, x, r));
-  return threeVolume / 3.0;
+  const Vec3d r = x[pool.vertices[pool.vertexBegin[s]]].cast<double>();
+  double sixVolume = 0;
+  for (std::size_t t = pool.triangleBegin[s]; t < pool.triangleBegin[s + 1]; ++t) {
+    const auto& tri = pool.triangles[t];
+    const Vec3d a = x[tri[0]].cast<double>() - r, b = x[tri[1]].cast<double>() - r,
+                c = x[tri[2]].cast<double>() - r;
+    sixVolume += a.dot(b.cross(c));
+  }
+  return sixVolume / 6.0;
 }
 
 void startPressureSubstep(PressurePool& pool, double time, Real h) {

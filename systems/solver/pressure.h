@@ -1,6 +1,8 @@
 // The pressure of closed cloth surfaces (Material::pressure), solved with the constraints: one
 // compliant constraint per surface on its enclosed volume V (XPBD, Macklin et al. 2016),
-//   ∂V/∂x_k = Σ over k's triangles (a, k, b) of (x_a × x_b)/6,   S = Σ_k w_k ‖∂V/∂x_k‖²,
+//   ∂V/∂x_k = Σ over k's triangles (k, a, b) of (x_a × x_b)/6 = a third of the sum of their area
+//   vectors ½ (x_a − x_k) × (x_b − x_k) on a closed surface (computed so: one cross product per
+//   triangle),   S = Σ_k w_k ‖∂V/∂x_k‖²,
 //   Δx_k = w_k ∂V/∂x_k Δλ, and the force on the surface is (λ/h²) ∂V/∂x_k.
 // KeepVolume: C = V − V*, Δλ = (−C − α̃λ)/(S + α̃), α̃ = α/h².
 // Gas (P·V = c·M): the force must be the pressure difference, λ/h² = c·M/V − P_ambient. Newton's
