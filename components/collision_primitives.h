@@ -13,7 +13,9 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "nucleon/types.h"
@@ -84,12 +86,27 @@ struct CollisionPrimitives {
     return std::binary_search(excludedPairs.begin(), excludedPairs.end(),
                               pairKey(objectA, objectB));
   }
+
+  // Vertex sets that never collide with each other (World::excludeCollisions with vertex lists):
+  // per particle, the mask of the sets it is in (empty when there are none), and per set the
+  // mask of the sets it never meets. A primitive is in a set when all of its particles are.
+  std::vector<std::uint32_t> particleSets;
+  std::array<std::uint32_t, 32> setExclusions{};
+  bool setsExcluded(std::span<const Index> a, std::span<const Index> b) const {
+    std::uint32_t maskA = ~0u, maskB = ~0u;
+    for (Index i : a) maskA &= particleSets[i];
+    for (Index j : b) maskB &= particleSets[j];
+    for (std::uint32_t bits = maskA; bits != 0; bits &= bits - 1)
+      if (setExclusions[static_cast<std::size_t>(std::countr_zero(bits))] & maskB) return true;
+    return false;
+  }
   void clear() {
     pointParticle.clear(), pointRadius.clear(), pointObject.clear(), pointIsolated.clear();
     edgeParticles.clear(), edgeRadius.clear(), edgeObject.clear();
     pointTriangle.clear(), edgeTriangle.clear(), triangleOwnership.clear(), objectFlags.clear();
     triangleParticles.clear(), triangleRadius.clear(), triangleObject.clear();
-    objectSurface.clear(), excludedPairs.clear();
+    objectSurface.clear(), excludedPairs.clear(), particleSets.clear();
+    setExclusions.fill(0);
     smallestRadius = 0;
   }
 };

@@ -775,6 +775,24 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
       top.fail("exclude_collisions", "expected a list of pairs of object names");
     for (std::size_t i = 0; i < list.size(); ++i) {
       const std::string where = "exclude_collisions[" + std::to_string(i) + "]";
+      if (list[i].is_object()) {
+        // {"object": "a", "vertices": […], "target": "b", "target_vertices": […]}
+        const Reader r(list[i], where, label);
+        r.allowOnly({"object", "vertices", "target", "target_vertices"});
+        Scene::VertexSets sets;
+        sets.object = objectNamed(r, "object", scene.objects);
+        sets.target = objectNamed(r, "target", scene.objects);
+        for (const char* key : {"vertices", "target_vertices"}) {
+          const SceneObject& owner = scene.objects[key[0] == 'v' ? sets.object : sets.target];
+          if (!r.has(key) || !r.raw(key).is_array() || r.raw(key).empty())
+            r.fail(r.at(key), "expected a non-empty list of vertex indices");
+          for (const Json& v : r.raw(key))
+            (key[0] == 'v' ? sets.vertices : sets.targetVertices)
+                .push_back(vertexOf(r, v, r.at(key), owner));
+        }
+        scene.excludedVertexSets.push_back(std::move(sets));
+        continue;
+      }
       if (!list[i].is_array() || list[i].size() != 2 || !list[i][0].is_string() ||
           !list[i][1].is_string())
         top.fail(where, "expected two object names");
@@ -832,6 +850,9 @@ World buildWorld(const Scene& scene) {
     }
     for (const auto& [a, b] : scene.excludedCollisions)
       world.excludeCollisions(world.objectAt(a), world.objectAt(b));
+    for (const Scene::VertexSets& sets : scene.excludedVertexSets)
+      world.excludeCollisions(world.objectAt(sets.object), sets.vertices,
+                              world.objectAt(sets.target), sets.targetVertices);
     for (const SceneAttachment& entry : scene.attachments) {
       Attachment a = entry.attachment;
       a.object = world.objectAt(entry.object);

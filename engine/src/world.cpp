@@ -677,7 +677,8 @@ void World::step(double dt) {
   WorldState& s = impl.state;
   if (s.topologyDirty) {  // derived tables, rebuilt outside the step so a step never allocates
     buildDerivedTables(s.constraints, s.particles, fineSweepKind(s.solver));
-    buildCollisionPrimitives(s.primitives, s.objects, s.excludedObjectPairs);
+    buildCollisionPrimitives(s.primitives, s.objects, s.excludedObjectPairs, s.excludedVertexSets,
+                             s.particles.size());
     // Pair indices name the new primitives: nothing the narrow phase kept of the old ones holds.
     s.primitiveContacts.boundVersion = 0;
     if (s.solver.kind == SolverKind::Multigrid) {
@@ -1110,6 +1111,25 @@ void World::excludeCollisions(ObjectId a, ObjectId b) {
   impl_->state.excludedObjectPairs.push_back(
       CollisionPrimitives::pairKey(a.index1 - 1, b.index1 - 1));
   impl_->state.topologyDirty = true;
+}
+
+void World::excludeCollisions(ObjectId a, std::span<const Index> verticesA, ObjectId b,
+                              std::span<const Index> verticesB) {
+  const ObjectRecord& first = lookup(*impl_, a);
+  const ObjectRecord& second = lookup(*impl_, b);
+  WorldState& s = impl_->state;
+  require(s.excludedVertexSets.size() < 16, "at most 16 pairs of vertex sets can be excluded");
+  VertexSetExclusion rule;
+  for (Index v : verticesA) {
+    require(v < first.particleCount, "excluded vertex " + std::to_string(v) + " is out of range");
+    rule.a.push_back(first.firstParticle + v);
+  }
+  for (Index v : verticesB) {
+    require(v < second.particleCount, "excluded vertex " + std::to_string(v) + " is out of range");
+    rule.b.push_back(second.firstParticle + v);
+  }
+  s.excludedVertexSets.push_back(std::move(rule));
+  s.topologyDirty = true;
 }
 
 const StepProfile& World::profile() const {

@@ -25,6 +25,7 @@
 #include "components/sweep_plan.h"
 #include "nucleon/world.h"
 #include "systems/dynamics/impact_travel.h"
+#include "systems/setup/build_collision_primitives.h"
 
 namespace nucleon {
 
@@ -58,6 +59,7 @@ struct WorldState {
   // pairs and the primitive contacts (per substep), and what the collision stages did.
   CollisionPrimitives primitives;
   std::vector<std::uint64_t> excludedObjectPairs;
+  std::vector<VertexSetExclusion> excludedVertexSets;  // global particle indices
   PrimitiveBvh bvh;
   CandidatePairs candidates;
   PrimitiveContactPool primitiveContacts;

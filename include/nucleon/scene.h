@@ -63,8 +63,13 @@ struct Scene {
   std::vector<SceneObject> objects;
   std::vector<SceneAttachment> attachments;
   // Pairs of objects (indices in `objects`; the same one twice: its self-collision) that never
-  // collide with each other.
+  // collide with each other, and pairs of vertex sets of objects that never do.
   std::vector<std::array<std::size_t, 2>> excludedCollisions;
+  struct VertexSets {
+    std::size_t object = 0, target = 0;
+    std::vector<Index> vertices, targetVertices;
+  };
+  std::vector<VertexSets> excludedVertexSets;
 };
 
 // Reads and validates a scene file. Meshes named in it are looked up relative to the scene's

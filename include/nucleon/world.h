@@ -143,6 +143,11 @@ class World {
   const CollisionReport& collisionReport() const;
   // The two objects (the same one twice: its self-collision) never collide with each other.
   void excludeCollisions(ObjectId a, ObjectId b);
+  // The primitives of `a` whose vertices are all in `verticesA` never collide with those of `b`
+  // whose vertices are all in `verticesB` (local indices; a and b may be the same object). At most
+  // 16 such pairs of sets; throws std::invalid_argument beyond, or on an index out of range.
+  void excludeCollisions(ObjectId a, std::span<const Index> verticesA, ObjectId b,
+                         std::span<const Index> verticesB);
 
   // Attachments (nucleon/attachments.h). addAttachment validates one (objects valid, vertex
   // indices in range, weights finite and summing to 1, non-negative finite distance, compliance

@@ -290,6 +290,7 @@ std::uint32_t objectOf(const CollisionPrimitives& prims, PairKind kind, bool fir
   if (shared) return false;
   for (Index j : particlesB) free |= w[j] != 0;
   if (!free) return false;
+  if (!prims.particleSets.empty() && prims.setsExcluded(particlesA, particlesB)) return false;
   return prims.excludedPairs.empty() ||
          !prims.excluded(objectOf(prims, kind, true, first), objectOf(prims, kind, false, second));
 }
@@ -312,6 +313,9 @@ template <PairKind kKind>
   } else {
     return admissible(prims, w, kKind, first, second);
   }
+  if (!prims.particleSets.empty() && prims.setsExcluded(particlesOf(prims, kKind, true, first),
+                                                        particlesOf(prims, kKind, false, second)))
+    return false;
   return prims.excludedPairs.empty() || !prims.excluded(objectOf(prims, kKind, true, first),
                                                         objectOf(prims, kKind, false, second));
 }
@@ -1357,7 +1361,8 @@ BroadPhaseStats findCandidatePairsBruteForce(CandidatePairs& out,
       free |= w[i] != 0;
     }
     for (Index j : b) free |= w[j] != 0;
-    return free && !primitives.excluded(objectA, objectB);
+    return free && !primitives.excluded(objectA, objectB) &&
+           (primitives.particleSets.empty() || !primitives.setsExcluded(a, b));
   };
   auto add = [&](PairKind kind, std::size_t a, std::size_t b) {
     const auto first = static_cast<Index>(a), second = static_cast<Index>(b);

@@ -19,8 +19,20 @@ void addPoint(CollisionPrimitives& out, Index particle, Real radius, std::uint32
 }  // namespace
 
 void buildCollisionPrimitives(CollisionPrimitives& out, const std::vector<ObjectRecord>& objects,
-                              const std::vector<std::uint64_t>& excludedObjectPairs) {
+                              const std::vector<std::uint64_t>& excludedObjectPairs,
+                              const std::vector<VertexSetExclusion>& excludedVertexSets,
+                              std::size_t particleCount) {
   out.clear();
+  if (!excludedVertexSets.empty()) {
+    out.particleSets.assign(particleCount, 0);
+    for (std::size_t r = 0; r < excludedVertexSets.size() && r < 16; ++r) {
+      const std::uint32_t a = 2 * static_cast<std::uint32_t>(r), b = a + 1;
+      for (Index i : excludedVertexSets[r].a) out.particleSets[i] |= 1u << a;
+      for (Index i : excludedVertexSets[r].b) out.particleSets[i] |= 1u << b;
+      out.setExclusions[a] |= 1u << b;
+      out.setExclusions[b] |= 1u << a;
+    }
+  }
   out.excludedPairs = excludedObjectPairs;
   for (std::uint32_t o = 0; o < objects.size(); ++o)
     if (!objects[o].material.selfCollision)

@@ -14,7 +14,14 @@ namespace nucleon {
 // its thickness, in global particle indices and object order. `excludedObjectPairs` holds
 // CollisionPrimitives::pairKey values of object pairs that must not collide; objects whose
 // material turns self-collision off are added as (a, a).
+// `excludedVertexSets` holds pairs of particle lists (global indices) whose primitives never
+// collide with each other (at most 16 pairs); `particleCount` sizes the sets' masks.
+struct VertexSetExclusion {
+  std::vector<Index> a, b;
+};
 void buildCollisionPrimitives(CollisionPrimitives& out, const std::vector<ObjectRecord>& objects,
-                              const std::vector<std::uint64_t>& excludedObjectPairs);
+                              const std::vector<std::uint64_t>& excludedObjectPairs,
+                              const std::vector<VertexSetExclusion>& excludedVertexSets = {},
+                              std::size_t particleCount = 0);
 
 }  // namespace nucleon
