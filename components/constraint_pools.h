@@ -5,7 +5,10 @@
 
 #include <vector>
 
+#include "components/attachment_pool.h"
 #include "components/constraint_pool.h"
+#include "components/pressure_pool.h"
+#include "components/shape_match_pool.h"
 #include "components/user_constraint_pool.h"
 #include "nucleon/constraint_family.h"
 
@@ -17,6 +20,12 @@ struct ConstraintPools {
   NUCLEON_CONSTRAINT_FAMILIES(NUCLEON_FAMILY_POOLS)
 #undef NUCLEON_FAMILY_POOLS
 #undef NUCLEON_POOL
+
+  // The pools of the families without table pools: one constraint per pressured surface, per
+  // attachment and per rigid cluster.
+  PressurePool pressure;
+  AttachmentPool attachments;
+  ShapeMatchPool shapeMatching;
 
   // Registered families, in registration order: family kBuiltinFamilyCount + i is user[i].
   std::vector<UserConstraintPool> user;
@@ -57,6 +66,9 @@ struct ConstraintPools {
         if (u < user.size()) total = user[u].size();
       }
     }
+    if (family == ConstraintFamily::Pressure) total = pressure.size();
+    if (family == ConstraintFamily::Attachment) total = attachments.size();
+    if (family == ConstraintFamily::Rigidity) total = shapeMatching.size();
     return total;
   }
 };

@@ -15,8 +15,11 @@ namespace nucleon {
 
 // Surface vertices (and triangles) per block of the volume's parallel passes.
 constexpr std::size_t kPressureBlock = 1024;
-// The least volume, as a share of the rest volume, at which a gas's pressure is evaluated.
+// The least volume, as a share of the rest volume, at which a gas's pressure is evaluated, and
+// the largest change of volume one projection of a gas may ask for, as a share of the volume it
+// has (systems/solver/pressure.cpp, the damped Newton step).
 constexpr double kMinPressureVolume = 0.01;
+constexpr double kMaxPressureStep = 0.5;
 
 struct PressurePool {
   // Per surface.

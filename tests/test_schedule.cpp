@@ -12,7 +12,7 @@ using namespace nucleon;
 namespace {
 std::string sequence(const SweepPlan& plan) {
   std::string out;
-  for (const SweepOp& op : plan.ops)  // s, h (shear), b, t, v
+  for (const SweepOp& op : plan.ops)  // s, h (shear), b, t, v, p, a, r
     out += op.family == ConstraintFamily::Shear    ? 'h'
            : op.family == ConstraintFamily::Tether ? 'T'
                                                    : toString(op.family)[0];
@@ -30,7 +30,8 @@ TEST(SweepPlan, DefaultGivesEveryFamilyTheIterationCountInTheDefaultOrder) {
   SolverSettings solver;
   solver.iterations = 2;
   const SweepPlan plan = planSweeps(solver, {});
-  EXPECT_EQ(sequence(plan), "sThbtvsThbtv");  // stretch, tether, shear, bend, twist, volume, twice
+  // stretch, tether, shear, bend, twist, volume, pressure, attachment, rigidity, twice
+  EXPECT_EQ(sequence(plan), "sThbtvparsThbtvpar");
   EXPECT_EQ(plan.rounds, 2);
 }
 

@@ -171,8 +171,7 @@ void StepGraph::runStage(int stage) {
     case kSolve: {
       SolvePools pools{s.constraints, s.particles,         s.plan,       s.contacts,
                        s.colliders,   s.primitiveContacts, s.candidates, s.primitives,
-                       s.bvh,         s.hierarchies,       s.objects,    s.cascade,
-                       s.pressure,    s.shapeMatching,     s.attachments};
+                       s.bvh,         s.hierarchies,       s.objects,    s.cascade};
       SolveReport solve;
       profile.solve +=
           timed([&] { solve = solveConstraints(pools, solveSettingsOf(s.solver), c); });

@@ -406,11 +406,12 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
   if (record.closed)
     record.restVolume = enclosedVolume(record.surface, particles.x, record.firstParticle);
   if (def.material.pressure.mode != PressureMode::Off) {
-    appendPressureSurface(s.pressure, record, static_cast<std::uint32_t>(s.objects.size()));
+    appendPressureSurface(s.constraints.pressure, record,
+                          static_cast<std::uint32_t>(s.objects.size()));
   }
   if (def.material.rigidity > 0)
-    appendShapeMatchCluster(s.shapeMatching, record, static_cast<std::uint32_t>(s.objects.size()),
-                            particles);
+    appendShapeMatchCluster(s.constraints.shapeMatching, record,
+                            static_cast<std::uint32_t>(s.objects.size()), particles);
 
   // Tethers hold free vertices to animated pins too: a tether only bounds the distance to its pin
   // by the rest path length along the mesh, which an inextensible cloth keeps wherever the pin is.
@@ -1012,7 +1013,7 @@ std::size_t World::addAttachment(const Attachment& a) {
   } else {
     validateMotionFields(a.motion, what + " motion");
   }
-  AttachmentPool& pool = s.attachments;
+  AttachmentPool& pool = s.constraints.attachments;
   pool.kind.push_back(a.kind);
   pool.particles.push_back(ids);
   pool.weights.push_back(a.weights);
@@ -1063,20 +1064,20 @@ std::size_t World::weld(ObjectId a, ObjectId b, Real within, Real compliance, Re
 }
 
 std::size_t World::attachmentCount() const {
-  return impl_->state.attachments.size();
+  return impl_->state.constraints.attachments.size();
 }
 bool World::attachmentBroken(std::size_t index) const {
-  require(index < impl_->state.attachments.size(), "attachment index out of range");
-  return impl_->state.attachments.broken[index] != 0;
+  require(index < impl_->state.constraints.attachments.size(), "attachment index out of range");
+  return impl_->state.constraints.attachments.broken[index] != 0;
 }
 std::size_t World::brokenAttachments() const {
-  return impl_->state.attachments.brokenCount;
+  return impl_->state.constraints.attachments.brokenCount;
 }
 
 PressureReading World::pressure(ObjectId id) const {
   const WorldState& s = impl_->state;
   lookup(*impl_, id);
-  const PressurePool& pool = s.pressure;
+  const PressurePool& pool = s.constraints.pressure;
   for (std::size_t k = 0; k < pool.size(); ++k) {
     if (pool.object[k] != id.index1 - 1) continue;
     PressureReading reading;

@@ -64,14 +64,6 @@ struct WorldState {
   CandidatePairs candidates;
   PrimitiveContactPool primitiveContacts;
   CollisionReport collisionReport;
-  // Closed cloth surfaces with pressure (static, appended with their objects; the gas amounts
-  // carry from substep to substep).
-  PressurePool pressure;
-  // Objects with rigidity: one shape matching cluster each (static, appended with them).
-  ShapeMatchPool shapeMatching;
-  // Attachments between objects, to surfaces and to handles (static apart from their multipliers
-  // and broken flags).
-  AttachmentPool attachments;
   KinematicTracks kinematics;  // static lifetime: one track per animated collider or pin group
   // The smallest contact distance between a primitive of an animated object (collider or pinned)
   // and a primitive that moves (0: no such pair), rebuilt with the derived tables: the default

@@ -1,8 +1,9 @@
 // Attachments (Nucleus's nConstraints): compliant constraints that join a particle to another
 // object's particle, to a point on another object's triangle, to a triangle's plane it slides on,
 // or to an animated handle. Each is an XPBD constraint (Macklin et al. 2016), projected in every
-// backend after each sweep round (before the contacts), and each breaks when the force it exerts
-// exceeds its strength (glue strength): it is then removed for the rest of the run and counted.
+// backend as the family "attachment" (before the round's contacts), and each breaks when the force
+// it exerts exceeds its strength (glue strength): it is then removed for the rest of the run and
+// counted.
 //
 //   Attachment a;
 //   a.kind = AttachmentKind::PointToPoint;

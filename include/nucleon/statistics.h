@@ -39,8 +39,8 @@ struct Recoveries {
   // than the contact pool's reach): pushed out to the surface.
   std::uint64_t missedContacts = 0;
   // Projections of a gas-filled surface (Material::pressure) that enclosed less than 1% of its
-  // rest volume, or was turned inside out: the gas's pressure was taken at 1% of the rest
-  // volume, so that it stays finite and pushes the surface back out.
+  // rest volume, or was turned inside out: the gas's pressure was taken at 1% of the rest volume,
+  // so that it stays finite and pushes the surface back out.
   std::uint64_t collapsedPressureVolumes = 0;
   std::uint64_t firstStep = 0;  // 1-based step of the first repair; 0 if there was none
   std::uint64_t total() const { return nonFinite + missedContacts + collapsedPressureVolumes; }

@@ -28,11 +28,13 @@ void startAttachmentSubstep(AttachmentPool& pool, double endTime) {
                     std::span<Vec3>(&pool.target[i], 1));
 }
 
-void projectAttachments(AttachmentPool& pool, ParticlePool& particles, Real h) {
+void projectAttachments(AttachmentPool& pool, ParticlePool& particles, Real h,
+                        const std::uint8_t* objectRuns) {
   const double h2 = double(h) * double(h);
   for (std::size_t i = 0; i < pool.size(); ++i) {
     if (pool.broken[i]) continue;
     const auto& ids = pool.particles[i];
+    if (objectRuns && !objectRuns[particles.phase[ids[0]]]) continue;
     const AttachmentKind kind = pool.kind[i];
     Vec3d target;
     Vec3d normal;  // ∇ of C with respect to the attached particle

@@ -15,8 +15,10 @@ namespace nucleon {
 // put them at `endTime`.
 void startAttachmentSubstep(AttachmentPool& pool, double endTime);
 
-// One projection of every attachment that has not broken, on the predicted positions p.
-void projectAttachments(AttachmentPool& pool, ParticlePool& particles, Real h);
+// One projection of every attachment that has not broken, on the predicted positions p (with
+// `objectRuns`, only those whose attached particle's object it marks).
+void projectAttachments(AttachmentPool& pool, ParticlePool& particles, Real h,
+                        const std::uint8_t* objectRuns = nullptr);
 
 // After the solve: an attachment whose force |λ|/h² exceeded its strength breaks. Returns how
 // many broke.

@@ -29,8 +29,10 @@ void appendPressureSurface(PressurePool& pool, const ObjectRecord& record,
 // and each gas's pump and leak applied over the substep.
 void startPressureSubstep(PressurePool& pool, double time, Real h);
 
-// One projection of every surface's volume constraint on the predicted positions p.
-void projectPressure(PressurePool& pool, ParticlePool& particles, Real h);
+// One projection of every surface's volume constraint on the predicted positions p (with
+// `objectRuns`, only the surfaces of the objects it marks: a per-object schedule's round).
+void projectPressure(PressurePool& pool, ParticlePool& particles, Real h,
+                     const std::uint8_t* objectRuns = nullptr);
 
 // The enclosed volume of surface `s` at positions x (m³).
 double pressureVolume(const PressurePool& pool, std::size_t s, std::span<const Vec3> x);

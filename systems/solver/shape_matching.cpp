@@ -61,8 +61,10 @@ void appendShapeMatchCluster(ShapeMatchPool& pool, const ObjectRecord& record,
       std::max(pool.blockSums.size(), (count + kShapeMatchBlock - 1) / kShapeMatchBlock));
 }
 
-void projectShapeMatching(ShapeMatchPool& pool, ParticlePool& particles, int rounds) {
+void projectShapeMatching(ShapeMatchPool& pool, ParticlePool& particles, int rounds,
+                          const std::uint8_t* objectRuns) {
   for (std::size_t c = 0; c < pool.size(); ++c) {
+    if (objectRuns && !objectRuns[pool.object[c]]) continue;
     const std::size_t begin = pool.particleBegin[c], count = pool.particleBegin[c + 1] - begin;
     forBlocks(count, [&](std::size_t b) {
       std::array<double, 12> sums{};
@@ -91,6 +93,7 @@ void projectShapeMatching(ShapeMatchPool& pool, ParticlePool& particles, int rou
     forBlocks(count, [&](std::size_t b) {
       const std::size_t last = std::min(begin + count, begin + (b + 1) * kShapeMatchBlock);
       for (std::size_t k = begin + b * kShapeMatchBlock; k < last; ++k) {
+        if (particles.w[pool.particles[k]] == 0) continue;
         Vec3& p = particles.p[pool.particles[k]];
         const Vec3d goal = center + rotation * pool.rest[k];
         p += (share * (goal - p.cast<double>())).cast<Real>();

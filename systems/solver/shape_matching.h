@@ -20,9 +20,11 @@ namespace nucleon {
 void appendShapeMatchCluster(ShapeMatchPool& pool, const ObjectRecord& record,
                              std::uint32_t objectIndex, const ParticlePool& particles);
 
-// One projection of every cluster on the predicted positions p; `rounds` is the number of
-// projections in the substep.
-void projectShapeMatching(ShapeMatchPool& pool, ParticlePool& particles, int rounds);
+// One projection of every cluster on the predicted positions p (with `objectRuns`, only the
+// clusters of the objects it marks); `rounds` is the number of projections in the substep. A
+// particle of inverse mass 0 (held by the fail-safe for a moment) is not moved.
+void projectShapeMatching(ShapeMatchPool& pool, ParticlePool& particles, int rounds,
+                          const std::uint8_t* objectRuns = nullptr);
 
 // The rotation of the polar decomposition of A (the rotation nearest to A), by SVD, with the
 // reflection taken out when det A < 0.

@@ -110,6 +110,25 @@ void runSweepOp(const SweepOp& op, const SweepPlan& plan, ConstraintPools& const
                 SweepContext& sweep, SolverKind kind) {
   sweep.objectRuns =
       op.objectRunsOffset < 0 ? nullptr : plan.objectRuns.data() + op.objectRunsOffset;
+  // The families whose constraints span many particles, each projected by its own system.
+  switch (op.family) {
+    case ConstraintFamily::Pressure:
+      if (constraints.pressure.size() > 0)
+        projectPressure(constraints.pressure, sweep.particles, sweep.h, sweep.objectRuns);
+      return;
+    case ConstraintFamily::Attachment:
+      if (constraints.attachments.size() > 0)
+        projectAttachments(constraints.attachments, sweep.particles, sweep.h, sweep.objectRuns);
+      return;
+    case ConstraintFamily::Rigidity:
+      if (constraints.shapeMatching.size() > 0)
+        projectShapeMatching(constraints.shapeMatching, sweep.particles,
+                             plan.sweepsOfFamily[familyIndex(ConstraintFamily::Rigidity)],
+                             sweep.objectRuns);
+      return;
+    default:
+      break;
+  }
   forEachPoolOf(op.family, constraints, [&](auto& pool, auto tag) {
     using Tag = decltype(tag);
     if constexpr ((Tag::kPaths & kTetherLayers) != 0)
@@ -227,12 +246,10 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
   const SweepPlan& plan = pools.plan;
   const bool anyContacts = pools.contacts.size() > 0 || pools.primitiveContacts.size() > 0;
   constraints.forEach([](auto& pool) { resetMultipliers(pool); });
-  PressurePool& pressure = pools.pressure;
-  const bool anyPressure = pressure.size() > 0;
-  const bool anyShapes = pools.shapeMatching.size() > 0;
-  const bool anyAttachments = pools.attachments.size() > 0;
-  if (anyAttachments) startAttachmentSubstep(pools.attachments, context.endTime);
-  if (anyPressure) startPressureSubstep(pressure, context.time, context.h);
+  PressurePool& pressure = constraints.pressure;
+  AttachmentPool& attachments = constraints.attachments;
+  if (attachments.size() > 0) startAttachmentSubstep(attachments, context.endTime);
+  if (pressure.size() > 0) startPressureSubstep(pressure, context.time, context.h);
   SweepContext sweep{particles, context.h, settings.relaxation, nullptr};
   sweep.chebyshevRho = settings.chebyshevRho;
   // A registered family that did not opt into Jacobi's acceleration turns it off for every
@@ -247,9 +264,6 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
   for (const SweepOp& op : plan.ops) {
     runSweepOp(op, plan, constraints, sweep, kind);
     if (!op.endsRound) continue;
-    if (anyPressure) projectPressure(pressure, particles, context.h);
-    if (anyAttachments) projectAttachments(pools.attachments, particles, context.h);
-    if (anyShapes) projectShapeMatching(pools.shapeMatching, particles, std::max(plan.rounds, 1));
     if (anyContacts) report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
     // The repeated cascade, from the positions the fine sweeps left.
     if (++roundsDone < plan.rounds && settings.cascade && settings.cascadeEvery > 0 &&
@@ -257,11 +271,7 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
       runCascade(pools, settings, context, report);
   }
   constraints.forEach([](auto& pool) { bookVertexMultipliers(pool); });
-  if (plan.ops.empty() && anyPressure) projectPressure(pressure, particles, context.h);
-  if (plan.ops.empty() && anyAttachments)
-    projectAttachments(pools.attachments, particles, context.h);
-  if (plan.ops.empty() && anyShapes) projectShapeMatching(pools.shapeMatching, particles, 1);
-  if (anyAttachments) report.brokenAttachments = breakAttachments(pools.attachments, context.h);
+  if (attachments.size() > 0) report.brokenAttachments = breakAttachments(attachments, context.h);
   report.collapsedPressureProjections = pressure.collapsedProjections;
   pressure.collapsedProjections = 0;
   if (plan.ops.empty() && anyContacts)
@@ -283,6 +293,11 @@ std::uint64_t countProjections(const ConstraintPools& pools, const ParticlePool&
   for (const SweepOp& op : plan.ops) {
     const std::uint8_t* runs =
         op.objectRunsOffset < 0 ? nullptr : plan.objectRuns.data() + op.objectRunsOffset;
+    if (op.family == ConstraintFamily::Pressure || op.family == ConstraintFamily::Attachment ||
+        op.family == ConstraintFamily::Rigidity) {
+      total += pools.count(op.family);  // one projection per constraint, whatever its size
+      continue;
+    }
     forEachPoolOf(op.family, pools, [&](const auto& pool, auto) {
       if (!runs) {
         total += pool.size();

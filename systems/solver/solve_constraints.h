@@ -60,9 +60,6 @@ struct SolvePools {
   const LevelHierarchies& hierarchies;
   std::span<const ObjectRecord> objects;
   CascadeScratch& cascade;
-  PressurePool& pressure;
-  ShapeMatchPool& shapeMatching;
-  AttachmentPool& attachments;
 };
 
 // What one solve did, for the profile, the collision report and the repair log.
@@ -79,10 +76,9 @@ struct SolveReport {
 };
 
 // Resets every multiplier (XPBD's λ lives for one substep) and runs plan.ops on particles.p,
-// projecting the pressured surfaces, the attachments, the shape matching clusters, then the
-// collider contact pool and the primitive contact pool, after each round (and once when the plan
-// has no sweeps), so that pressure and resting contact are solved with the constraints and not
-// after them.
+// projecting the collider contact pool and the primitive contact pool after each round (and once
+// when the plan has no sweeps), so that pressure and resting contact are solved with the
+// constraints and not after them.
 SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
                              const SubstepContext& context);
 
