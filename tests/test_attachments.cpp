@@ -300,3 +300,45 @@ TEST(Attachments, ExcludedVertexSetsPassThroughEachOther) {
   const std::vector<Index> bad = {100};
   EXPECT_THROW(world.excludeCollisions(a, bad, a, bad), std::invalid_argument);
 }
+
+// Input attract: every particle of a cloud pulled to its animated rest position with a
+// compliance α, under gravity. At rest each hangs below its target by its weight times the
+// compliance, m g α (a spring of stiffness 1/α): 0.1 kg × 9.81 m/s² × 0.01 m/N = 9.81 mm. The
+// targets move sideways at 0.5 m/s, and the cloud follows them at that sag (the mean over the
+// last half second, within 2%: the undamped springs ring around it).
+TEST(Attachments, AnAttractHoldsACloudBelowItsMovingTargetByItsWeightTimesTheCompliance) {
+  World world;
+  world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 10, 4));
+  ObjectDef cloud;
+  cloud.name = "cloud";
+  for (int i = 0; i < 10; ++i) cloud.vertices.push_back(Vec3(Real(0.1) * i, 1, 0));
+  cloud.material.mass = 1;  // 0.1 kg each
+  const ObjectId id = world.addParticles(cloud);
+  Attachment attract;
+  attract.kind = AttachmentKind::PointToTransform;
+  attract.object = id;
+  attract.compliance = Real(0.01);
+  Keyframe start, end;
+  end.time = 10;
+  end.translation = Vec3d(5, 0, 0);
+  attract.motion.keyframes = {start, end};
+  for (Index v = 0; v < 10; ++v) {
+    attract.vertex = v;
+    world.addAttachment(attract);
+  }
+  double sag = 0, lag = 0;
+  int samples = 0;
+  for (int frame = 1; frame <= 240; ++frame) {
+    world.step(1.0 / 60);
+    if (frame <= 210) continue;
+    const double t = frame / 60.0;
+    for (Index v = 0; v < 10; ++v) {
+      const Vec3 x = world.positions(id)[v];
+      sag += 1.0 - double(x.y());
+      lag += (0.1 * v + 0.5 * t) - double(x.x());
+      ++samples;
+    }
+  }
+  EXPECT_NEAR(sag / samples, 0.1 * 9.81 * 0.01, 0.02 * 0.00981);
+  EXPECT_NEAR(lag / samples, 0, 1e-3);  // moving steadily, no force along the motion
+}
