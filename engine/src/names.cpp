@@ -1,6 +1,7 @@
 // Names of the domain enums as the scene format and the command line spell them.
 #include <string>
 
+#include "nucleon/attachments.h"
 #include "nucleon/object_def.h"
 #include "nucleon/schedule.h"
 #include "nucleon/solver_settings.h"
@@ -19,6 +20,20 @@ const char* toString(ObjectKind kind) {
       return "particles";
     case ObjectKind::Collider:
       return "collider";
+  }
+  return "?";
+}
+
+const char* toString(AttachmentKind kind) {
+  switch (kind) {
+    case AttachmentKind::PointToPoint:
+      return "point";
+    case AttachmentKind::PointToSurface:
+      return "surface";
+    case AttachmentKind::SlideOnSurface:
+      return "slide";
+    case AttachmentKind::PointToTransform:
+      return "transform";
   }
   return "?";
 }

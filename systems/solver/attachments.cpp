@@ -6,20 +6,6 @@
 
 namespace nucleon {
 
-const char* toString(AttachmentKind kind) {
-  switch (kind) {
-    case AttachmentKind::PointToPoint:
-      return "point";
-    case AttachmentKind::PointToSurface:
-      return "surface";
-    case AttachmentKind::SlideOnSurface:
-      return "slide";
-    case AttachmentKind::PointToTransform:
-      return "transform";
-  }
-  return "?";
-}
-
 void startAttachmentSubstep(AttachmentPool& pool, double endTime) {
   std::fill(pool.lambda.begin(), pool.lambda.end(), 0.0);
   for (std::size_t i = 0; i < pool.size(); ++i)

@@ -6,25 +6,14 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "systems/solver/fixed_blocks.h"
+
 namespace nucleon {
 namespace {
 
 // Surfaces up to this many vertices are summed and moved on the calling thread: a parallel loop
 // costs more than their work.
 constexpr std::size_t kSerialVertices = 2 * kPressureBlock;
-
-template <typename Body>
-void forBlocks(std::size_t count, Body&& body) {
-  const std::size_t blocks = (count + kPressureBlock - 1) / kPressureBlock;
-  if (count <= kSerialVertices) {
-    for (std::size_t b = 0; b < blocks; ++b) body(b);
-    return;
-  }
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 1),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t b = range.begin(); b < range.end(); ++b) body(b);
-                    });
-}
 
 struct VolumeSums {
   double volume = 0;
@@ -37,7 +26,7 @@ VolumeSums gradientAndSums(PressurePool& pool, std::size_t s, std::span<const Ve
                            std::span<const Real> w) {
   const std::size_t firstTriangle = pool.triangleBegin[s];
   const std::size_t triangleCount = pool.triangleBegin[s + 1] - firstTriangle;
-  forBlocks(triangleCount, [&](std::size_t b) {
+  forFixedBlocks(triangleCount, kPressureBlock, [&](std::size_t b) {
     const std::size_t begin = firstTriangle + b * kPressureBlock;
     const std::size_t end = std::min(firstTriangle + triangleCount, begin + kPressureBlock);
     for (std::size_t t = begin; t < end; ++t) {
@@ -50,7 +39,7 @@ VolumeSums gradientAndSums(PressurePool& pool, std::size_t s, std::span<const Ve
   // About a point of the surface: the volume of a closed surface does not depend on the origin,
   // and coordinates near the surface keep the dot products' precision.
   const Vec3d r = x[pool.vertices[begin]].cast<double>();
-  forBlocks(count, [&](std::size_t b) {
+  forFixedBlocks(count, kPressureBlock, [&](std::size_t b) {
     double threeVolume = 0, norm = 0;
     const std::size_t last = std::min(begin + count, begin + (b + 1) * kPressureBlock);
     for (std::size_t k = begin + b * kPressureBlock; k < last; ++k) {

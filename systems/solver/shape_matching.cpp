@@ -3,30 +3,11 @@
 #include <algorithm>
 #include <cmath>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 #include <Eigen/SVD>
 
+#include "systems/solver/fixed_blocks.h"
+
 namespace nucleon {
-namespace {
-
-// Clusters up to this many particles are summed and moved on the calling thread.
-constexpr std::size_t kSerialParticles = 2 * kShapeMatchBlock;
-
-template <typename Body>
-void forBlocks(std::size_t count, Body&& body) {
-  const std::size_t blocks = (count + kShapeMatchBlock - 1) / kShapeMatchBlock;
-  if (count <= kSerialParticles) {
-    for (std::size_t b = 0; b < blocks; ++b) body(b);
-    return;
-  }
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 1),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t b = range.begin(); b < range.end(); ++b) body(b);
-                    });
-}
-
-}  // namespace
 
 Mat3d polarRotation(const Mat3d& a) {
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(Eigen::Matrix3d(a),
@@ -66,7 +47,7 @@ void projectShapeMatching(ShapeMatchPool& pool, ParticlePool& particles, int rou
   for (std::size_t c = 0; c < pool.size(); ++c) {
     if (objectRuns && !objectRuns[pool.object[c]]) continue;
     const std::size_t begin = pool.particleBegin[c], count = pool.particleBegin[c + 1] - begin;
-    forBlocks(count, [&](std::size_t b) {
+    forFixedBlocks(count, kShapeMatchBlock, [&](std::size_t b) {
       std::array<double, 12> sums{};
       const std::size_t last = std::min(begin + count, begin + (b + 1) * kShapeMatchBlock);
       for (std::size_t k = begin + b * kShapeMatchBlock; k < last; ++k) {
@@ -90,7 +71,7 @@ void projectShapeMatching(ShapeMatchPool& pool, ParticlePool& particles, int rou
     const double rigidity = double(pool.rigidity[c]);
     const double share =
         rigidity >= 1 ? 1.0 : 1.0 - std::pow(1.0 - rigidity, 1.0 / std::max(rounds, 1));
-    forBlocks(count, [&](std::size_t b) {
+    forFixedBlocks(count, kShapeMatchBlock, [&](std::size_t b) {
       const std::size_t last = std::min(begin + count, begin + (b + 1) * kShapeMatchBlock);
       for (std::size_t k = begin + b * kShapeMatchBlock; k < last; ++k) {
         if (particles.w[pool.particles[k]] == 0) continue;
