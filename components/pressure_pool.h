@@ -49,6 +49,9 @@ struct PressurePool {
   // turned inside out): the gas pressure was taken at that volume. Read and cleared by the
   // solve's report.
   std::uint64_t collapsedProjections = 0;
+  // Gas steps held to kMaxPressureStep of the volume (the damped Newton step). Read and cleared
+  // likewise.
+  std::uint64_t limitedSteps = 0;
 
   std::size_t size() const { return object.size(); }
 };

@@ -204,15 +204,9 @@ TEST(Attachments, BadAttachmentsAreRefused) {
   EXPECT_THROW(world.addAttachment(bad), std::invalid_argument);
   EXPECT_EQ(world.attachmentCount(), 0u);
   auto errorOf = [](const std::string& attachments) {
-    try {
-      parseScene(R"({"name": "s", "objects": [{"type": "cloth", "name": "c", "shape": {"grid":
-          {"resolution": [4, 4]}}}], "attachments": )" +
-                     attachments + "}",
-                 "test", "");
-    } catch (const std::exception& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
+    return test::sceneError(R"({"name": "s", "objects": [{"type": "cloth", "name": "c", "shape":
+        {"grid": {"resolution": [4, 4]}}}], "attachments": )" +
+                            attachments + "}");
   };
   EXPECT_NE(errorOf(R"([{"kind": "glue", "object": "c"}])").find("attachments[0].kind"),
             std::string::npos);
@@ -227,7 +221,7 @@ TEST(Attachments, BadAttachmentsAreRefused) {
             std::string::npos);
   EXPECT_EQ(errorOf(R"([{"kind": "transform", "object": "c", "vertices": "all",
                          "motion": {"keyframes": [{"time": 0}]}, "compliance": 0.01}])"),
-            "no error");
+            "");
   // Pairs of objects that never collide, by name.
   const Scene excluded = parseScene(
       R"({"name": "s", "objects": [{"type": "cloth", "name": "c", "shape": {"grid": {}}},

@@ -224,14 +224,7 @@ TEST(Rigidity, BadRigidityIsRefused) {
   ball.pins.clear();
   EXPECT_THROW(world.addCollider(ball), std::invalid_argument);
   EXPECT_EQ(world.objectCount(), 0u);
-  auto errorOf = [](const std::string& text) {
-    try {
-      parseScene(text, "test", "");
-    } catch (const std::exception& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
-  };
+  const auto errorOf = test::sceneError;
   EXPECT_NE(errorOf(R"({"name": "r", "objects": [{"type": "cloth", "shape": {"box": {}},
                        "material": {"rigidity": 2}}]})")
                 .find("objects[0].material.rigidity"),

@@ -201,6 +201,8 @@ void StepGraph::runStage(int stage) {
       logRepairs(s.recoveries, solve.missedContacts, s.recoveries.missedContacts, c.step);
       logRepairs(s.recoveries, solve.collapsedPressureProjections,
                  s.recoveries.collapsedPressureVolumes, c.step);
+      logRepairs(s.recoveries, solve.limitedPressureSteps, s.recoveries.limitedPressureSteps,
+                 c.step);
       break;
     }
     case kUpdate: {

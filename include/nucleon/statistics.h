@@ -42,8 +42,13 @@ struct Recoveries {
   // rest volume, or was turned inside out: the gas's pressure was taken at 1% of the rest volume,
   // so that it stays finite and pushes the surface back out.
   std::uint64_t collapsedPressureVolumes = 0;
+  // Gas projections whose Newton step asked to change the volume by more than half of it, held to
+  // half: the linearised volume is far off there (a surface collapsing or torn inside out).
+  std::uint64_t limitedPressureSteps = 0;
   std::uint64_t firstStep = 0;  // 1-based step of the first repair; 0 if there was none
-  std::uint64_t total() const { return nonFinite + missedContacts + collapsedPressureVolumes; }
+  std::uint64_t total() const {
+    return nonFinite + missedContacts + collapsedPressureVolumes + limitedPressureSteps;
+  }
 };
 
 // What the collision stages did since the world was created: pairs and contacts summed over

@@ -172,7 +172,10 @@ void projectPressure(PressurePool& pool, ParticlePool& particles, Real h,
       // volume there is (at least kMinPressureVolume of the rest volume), so a gas approaches its
       // volume over a few projections instead of jumping past it.
       const double most = kMaxPressureStep * volume / sums.gradientNorm;
-      if (std::abs(step) > most) step = std::copysign(most, step);
+      if (std::abs(step) > most) {
+        step = std::copysign(most, step);
+        ++pool.limitedSteps;
+      }
       pool.collapsedProjections += repaired ? 1 : 0;
     } else {
       const double c = sums.volume - double(settings.volumeScale) * pool.restVolume[s];

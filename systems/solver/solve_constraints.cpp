@@ -271,9 +271,11 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
       runCascade(pools, settings, context, report);
   }
   constraints.forEach([](auto& pool) { bookVertexMultipliers(pool); });
-  if (attachments.size() > 0) report.brokenAttachments = breakAttachments(attachments, context.h);
+  // Counted in the pool (World::brokenAttachments).
+  if (attachments.size() > 0) breakAttachments(attachments, context.h);
   report.collapsedPressureProjections = pressure.collapsedProjections;
-  pressure.collapsedProjections = 0;
+  report.limitedPressureSteps = pressure.limitedSteps;
+  pressure.collapsedProjections = pressure.limitedSteps = 0;
   if (plan.ops.empty() && anyContacts)
     report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
   if (pools.colliders.size() > 0)

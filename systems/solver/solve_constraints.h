@@ -71,7 +71,7 @@ struct SolveReport {
   std::size_t colliderRedetections = 0;     // collider contacts found again after a cascade
   std::size_t cascadeProjections = 0;
   std::uint64_t collapsedPressureProjections = 0;  // gas pressures taken at the least volume
-  std::size_t brokenAttachments = 0;               // attachments whose force passed their strength
+  std::uint64_t limitedPressureSteps = 0;          // gas steps held to half the volume
   CrossingReport crossing;
 };
 
