@@ -7,6 +7,7 @@
 
 #include "components/attachment_pool.h"
 #include "components/constraint_pool.h"
+#include "components/liquid_pool.h"
 #include "components/pressure_pool.h"
 #include "components/shape_match_pool.h"
 #include "components/user_constraint_pool.h"
@@ -26,6 +27,7 @@ struct ConstraintPools {
   PressurePool pressure;
   AttachmentPool attachments;
   ShapeMatchPool shapeMatching;
+  LiquidPool liquid;  // one density constraint per liquid particle
 
   // Registered families, in registration order: family kBuiltinFamilyCount + i is user[i].
   std::vector<UserConstraintPool> user;
@@ -69,6 +71,7 @@ struct ConstraintPools {
     if (family == ConstraintFamily::Pressure) total = pressure.size();
     if (family == ConstraintFamily::Attachment) total = attachments.size();
     if (family == ConstraintFamily::Rigidity) total = shapeMatching.size();
+    if (family == ConstraintFamily::Density) total = liquid.size();
     return total;
   }
 };

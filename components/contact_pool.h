@@ -27,6 +27,12 @@ struct ContactPool {
   std::vector<Real> lambda;
   std::vector<Vec3> friction;
 
+  // Static (set with the derived tables): per particle, how much farther than its own motion it
+  // is looked for within a collider's reach; empty when none is. A liquid particle's is the kernel
+  // radius: a density projection moves a particle by up to about that much, and one pushed into
+  // a wall without a contact would have to be repaired.
+  std::vector<Real> extraReach;
+
   // Build scratch: per particle, how many contacts it has (then, after the scan, where its run
   // starts). Sized to the particle count once, reused every substep.
   std::vector<Index> runStart;

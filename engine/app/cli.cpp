@@ -255,6 +255,13 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
         const PressureReading p = world.pressure(id);
         perFrame.back()["pressure"].push_back({p.volume, p.pressure});
       }
+    // Liquids: the compression the density constraints left, [mean, p99, max], in object order.
+    for (std::size_t i = 0; i < world.objectCount(); ++i)
+      if (const ObjectId id = world.objectAt(i); world.isLiquid(id)) {
+        const LiquidReading l = world.liquid(id);
+        perFrame.back()["liquid"].push_back(
+            {l.meanCompression, l.compressionP99, l.maxCompression});
+      }
     if (!o.outDir.empty())
       for (std::size_t i = 0; i < world.objectCount(); ++i) {
         const ObjectId id = world.objectAt(i);
@@ -358,6 +365,24 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
                                  {"rest_volume", p.restVolume},
                                  {"pressure", p.pressure},
                                  {"gas", p.gas}});
+  }
+  // Each liquid's state at the end (World::liquid), with its worst frame.
+  for (std::size_t i = 0, liquids = 0; i < world.objectCount(); ++i) {
+    const ObjectId id = world.objectAt(i);
+    if (!world.isLiquid(id)) continue;
+    const LiquidReading l = world.liquid(id);
+    double worst = 0;
+    for (const nlohmann::json& frame : perFrame)
+      worst = std::max(worst, frame.at("liquid")[liquids][2].get<double>());
+    ++liquids;
+    stats["liquid"].push_back({{"object", world.name(id)},
+                               {"particles", l.density.size()},
+                               {"rest_density", l.restDensity},
+                               {"mean_compression", l.meanCompression},
+                               {"compression_p99", l.compressionP99},
+                               {"max_compression", l.maxCompression},
+                               {"worst_frame_max_compression", worst},
+                               {"dropped_neighbours", l.droppedNeighbours}});
   }
   // Multigrid's fine-sweep backend (scene key solver.smoother).
   if (scene.solver.kind == SolverKind::Multigrid)

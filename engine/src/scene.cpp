@@ -190,15 +190,16 @@ struct Rings {
 };
 
 ObjectDef readShape(const Reader& shape, const std::string& folder, Rings& rings) {
-  shape.allowOnly(
-      {"grid", "polyline", "icosphere", "tube", "box", "tet_box", "obj", "mesh", "points"});
+  shape.allowOnly({"grid", "polyline", "icosphere", "tube", "box", "tet_box", "obj", "mesh",
+                   "points", "block"});
   int given = 0;
-  for (const char* k :
-       {"grid", "polyline", "icosphere", "tube", "box", "tet_box", "obj", "mesh", "points"})
+  for (const char* k : {"grid", "polyline", "icosphere", "tube", "box", "tet_box", "obj", "mesh",
+                        "points", "block"})
     given += shape.has(k);
   if (given != 1)
     shape.fail(
-        "give exactly one of grid, polyline, icosphere, tube, box, tet_box, obj, mesh, points");
+        "give exactly one of grid, polyline, icosphere, tube, box, tet_box, obj, mesh, points, "
+        "block");
   try {
     if (shape.has("tube")) {
       const Reader t = shape.child("tube");
@@ -280,6 +281,12 @@ ObjectDef readShape(const Reader& shape, const std::string& folder, Rings& rings
       fs::path file = fs::path(folder) / name;
       if (!fs::exists(file)) file = fs::path(assetsFolder()) / "meshes" / name;
       return loadObj(file.string());
+    }
+    if (shape.has("block")) {
+      const Reader b = shape.child("block");
+      b.allowOnly({"center", "size", "spacing"});
+      return particleBlock(b.vec3("center", Vec3(0, 1, 0)), b.vec3("size", Vec3(1, 1, 1)),
+                           static_cast<Real>(b.number("spacing", 0.05, 1e-4, 1e3)));
     }
     if (shape.has("points")) {
       const Json& list = shape.raw("points");
@@ -471,7 +478,7 @@ SceneObject readObject(const Reader& o, const std::string& folder,
     m.allowOnly({"mass", "stretch_compliance", "compression_compliance", "bend_compliance",
                  "shear_compliance", "twist_compliance", "volume_compliance", "damping",
                  "thickness", "tethers", "collide", "self_collision", "friction", "static_friction",
-                 "restitution", "stickiness", "pressure", "rigidity"});
+                 "restitution", "stickiness", "pressure", "rigidity", "liquid"});
     Material& mat = out.def.material;
     mat.mass = static_cast<Real>(m.number("mass", mat.mass, 1e-9, 1e9));
     mat.stretchCompliance =
@@ -529,6 +536,30 @@ SceneObject readObject(const Reader& o, const std::string& folder,
       if (pressure.mode == PressureMode::Gas)
         for (const char* key : {"volume_scale", "compliance"})
           if (p.has(key)) p.fail(p.at(key), "a keep_volume setting; mode gas follows P·V = c·M");
+    }
+    if (m.has("liquid")) {
+      if (out.kind != ObjectKind::Particles)
+        m.fail(m.at("liquid"), "only a particle cloud can be a liquid");
+      const Reader q = m.child("liquid");
+      q.allowOnly({"rest_density", "kernel_scale", "relaxation", "tensile_strength",
+                   "tensile_distance", "tensile_exponent", "viscosity", "vorticity",
+                   "surface_tension", "adhesion"});
+      Liquid& liquid = mat.liquid;
+      liquid.enabled = true;
+      liquid.restDensity =
+          static_cast<Real>(q.number("rest_density", liquid.restDensity, 1e-3, 1e6));
+      liquid.kernelScale = static_cast<Real>(q.number("kernel_scale", liquid.kernelScale, 1.5, 3));
+      liquid.relaxation = static_cast<Real>(q.number("relaxation", liquid.relaxation, 1e-6, 10));
+      liquid.tensileStrength =
+          static_cast<Real>(q.number("tensile_strength", liquid.tensileStrength, 0, 1));
+      liquid.tensileDistance =
+          static_cast<Real>(q.number("tensile_distance", liquid.tensileDistance, 0.01, 0.9));
+      liquid.tensileExponent = q.integer("tensile_exponent", liquid.tensileExponent, 1, 8);
+      liquid.viscosity = static_cast<Real>(q.number("viscosity", liquid.viscosity, 0, 1));
+      liquid.vorticity = static_cast<Real>(q.number("vorticity", liquid.vorticity, 0, 100));
+      liquid.surfaceTension =
+          static_cast<Real>(q.number("surface_tension", liquid.surfaceTension, 0, 1e6));
+      liquid.adhesion = static_cast<Real>(q.number("adhesion", liquid.adhesion, 0, 1e3));
     }
     if (m.has("collide")) {
       // Which primitives collide: a list of "vertices", "edges", "faces" (empty: none).

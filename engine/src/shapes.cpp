@@ -1,5 +1,6 @@
 #include "nucleon/shapes.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -240,6 +241,28 @@ ObjectDef tetBox(const Vec3& center, const Vec3& size, const std::array<int, 3>&
           if (volume < 0) std::swap(tet[2], tet[3]);
           def.tets.push_back(tet);
         }
+  return def;
+}
+
+ObjectDef particleBlock(const Vec3& center, const Vec3& size, Real spacing) {
+  if (!(spacing > 0) || !std::isfinite(spacing))
+    throw std::invalid_argument("a particle block's spacing must be positive");
+  std::array<int, 3> count;
+  double total = 1;
+  for (int a = 0; a < 3; ++a) {
+    if (!(size[a] > 0)) throw std::invalid_argument("a particle block's size must be positive");
+    count[a] = std::max(1, static_cast<int>(std::lround(double(size[a]) / double(spacing))));
+    total *= count[a];
+  }
+  if (total > 1e7) throw std::invalid_argument("a particle block holds at most 10 million points");
+  ObjectDef def;
+  def.vertices.reserve(static_cast<std::size_t>(total));
+  for (int k = 0; k < count[2]; ++k)
+    for (int j = 0; j < count[1]; ++j)
+      for (int i = 0; i < count[0]; ++i)
+        def.vertices.push_back(center + spacing * Vec3(Real(i) - Real(count[0] - 1) / 2,
+                                                       Real(j) - Real(count[1] - 1) / 2,
+                                                       Real(k) - Real(count[2] - 1) / 2));
   return def;
 }
 

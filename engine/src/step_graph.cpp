@@ -8,6 +8,7 @@
 #include "systems/collision/primitive_contacts.h"
 #include "systems/dynamics/integrate.h"
 #include "systems/dynamics/kinematic_motion.h"
+#include "systems/liquid/liquid_velocities.h"
 #include "systems/solver/solve_constraints.h"
 
 namespace nucleon {
@@ -21,6 +22,7 @@ enum Stage {
   kDetectCollisions,
   kSolve,
   kUpdate,
+  kLiquidVelocities,
   kFinishAnimation,
   kStageCount
 };
@@ -44,6 +46,10 @@ constexpr std::array<StageDeclaration, kStageCount> kStages = {{
     // Also restitution of the primitive contacts, after the velocity update.
     {"update", kPositions | kVelocities | kPredicted | kPrimitiveContacts,
      kPositions | kVelocities | kPredicted | kRecoveries | kStageProfile},
+    // Viscosity, vorticity and surface tension of the liquids, over the solve's neighbour lists;
+    // booked as solve time.
+    {"liquid velocities", kPositions | kVelocities | kInverseMass | kConstraints,
+     kVelocities | kConstraints | kStageProfile},
     // Shares `animate`'s profile entry without a race: it reads the targets animate writes, so it
     // always runs after it.
     {"finish animation", kAnimation, kPositions | kPredicted | kStageProfile},
@@ -211,6 +217,12 @@ void StepGraph::runStage(int stage) {
       if (s.primitiveContacts.size() > 0)
         profile.collisions += timed([&] { applyRestitution(s.primitiveContacts, s.particles); });
       logRepairs(s.recoveries, bad, s.recoveries.nonFinite, c.step);
+      break;
+    }
+    case kLiquidVelocities: {
+      LiquidPool& liquid = s.constraints.liquid;
+      if (liquid.size() == 0) break;
+      profile.solve += timed([&] { applyLiquidVelocities(liquid, s.particles, c.h); });
       break;
     }
     case kFinishAnimation:

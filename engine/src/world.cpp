@@ -18,6 +18,7 @@
 #include "systems/diagnostics/triangle_intersections.h"
 #include "systems/dynamics/impact_travel.h"
 #include "systems/dynamics/kinematic_motion.h"
+#include "systems/liquid/density_constraints.h"
 #include "systems/setup/build_collision_primitives.h"
 #include "systems/setup/build_constraints.h"
 #include "systems/setup/build_derived_tables.h"
@@ -95,6 +96,29 @@ void validateCommon(const ObjectDef& def, const std::string& what, std::size_t f
             what + ": pressure volume_scale must be in (0, 1e3]");
     require(std::isfinite(pressure.compliance) && pressure.compliance >= 0,
             what + ": pressure compliance must be finite and non-negative");
+  }
+  const Liquid& liquid = m.liquid;
+  if (liquid.enabled) {
+    auto within = [](Real v, double lo, double hi) {
+      return std::isfinite(v) && v >= lo && v <= hi;
+    };
+    require(within(liquid.restDensity, 1e-3, 1e6),
+            what + ": liquid rest_density must be in [1e-3, 1e6] kg/m³");
+    require(within(liquid.kernelScale, 1.5, 3), what + ": liquid kernel_scale must be in [1.5, 3]");
+    require(within(liquid.relaxation, 1e-6, 10),
+            what + ": liquid relaxation must be in [1e-6, 10]");
+    require(within(liquid.tensileStrength, 0, 1),
+            what + ": liquid tensile_strength must be in [0, 1]");
+    require(within(liquid.tensileDistance, 0.01, 0.9),
+            what + ": liquid tensile_distance must be in [0.01, 0.9]");
+    require(liquid.tensileExponent >= 1 && liquid.tensileExponent <= 8,
+            what + ": liquid tensile_exponent must be a whole number in [1, 8]");
+    require(within(liquid.viscosity, 0, 1), what + ": liquid viscosity must be in [0, 1]");
+    require(within(liquid.vorticity, 0, 100), what + ": liquid vorticity must be in [0, 100] m/s");
+    require(within(liquid.surfaceTension, 0, 1e6),
+            what + ": liquid surface_tension must be in [0, 1e6]");
+    require(within(liquid.adhesion, 0, 1e3), what + ": liquid adhesion must be in [0, 1e3] m");
+    require(m.rigidity == 0, what + ": a liquid cannot have rigidity");
   }
   for (Index pin : def.pins)
     require(pin < def.vertices.size(), what + ": pin " + std::to_string(pin) +
@@ -298,6 +322,17 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
   validateMotion(def, kind, what);
   validatePinGroups(def, kind, what);
   const std::size_t n = def.vertices.size();
+  if (def.material.liquid.enabled) {
+    require(kind == ObjectKind::Particles, what + ": only a particle cloud can be a liquid");
+    // One hash grid serves every liquid, its cells the kernel radius.
+    const LiquidPool& liquids = s.constraints.liquid;
+    const Real radius = liquidKernelRadius(def.material.liquid, def.material.mass, n);
+    require(liquids.objects.empty() ||
+                std::abs(radius - liquids.kernels.radius) <= 1e-4 * liquids.kernels.radius,
+            what + ": its kernel radius " + std::to_string(radius) +
+                " m differs from the other liquids' (" + std::to_string(liquids.kernels.radius) +
+                " m): liquids of one world share their particle size and kernel scale");
+  }
 
   ObjectRecord record;
   record.kind = kind;
@@ -409,6 +444,9 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
     appendPressureSurface(s.constraints.pressure, record,
                           static_cast<std::uint32_t>(s.objects.size()));
   }
+  if (def.material.liquid.enabled)
+    appendLiquidObject(s.constraints.liquid, static_cast<std::uint32_t>(s.objects.size()), first, n,
+                       def.material.liquid, def.material.mass);
   if (def.material.rigidity > 0)
     appendShapeMatchCluster(s.constraints.shapeMatching, record,
                             static_cast<std::uint32_t>(s.objects.size()), particles);
@@ -691,6 +729,10 @@ void World::step(double dt) {
     } else
       s.hierarchies.objects.clear();
     s.plan = buildSweepPlan(s.solver, s.objects, s.constraints, s.particles);
+    const LiquidPool& liquids = s.constraints.liquid;
+    s.contacts.extraReach.assign(liquids.size() > 0 ? s.particles.size() : 0, Real(0));
+    for (Index particle : liquids.particle)
+      s.contacts.extraReach[particle] = liquids.kernels.radius;
     s.kinematicContactDistance = smallestKinematicContact(s.primitives, s.objects, s.kinematics);
     s.objectEdgeLength = medianEdgeLengths(s.objects, s.particles);
     s.topologyDirty = false;
@@ -1097,6 +1139,41 @@ PressureReading World::pressure(ObjectId id) const {
     return reading;
   }
   throw std::invalid_argument("object '" + s.objects[id.index1 - 1].name + "' has no pressure");
+}
+
+bool World::isLiquid(ObjectId id) const {
+  return lookup(*impl_, id).material.liquid.enabled;
+}
+
+LiquidReading World::liquid(ObjectId id) const {
+  const WorldState& s = impl_->state;
+  const ObjectRecord& record = lookup(*impl_, id);
+  const LiquidPool& pool = s.constraints.liquid;
+  const auto entry = std::find_if(pool.objects.begin(), pool.objects.end(),
+                                  [&](const auto& o) { return o.object == id.index1 - 1; });
+  if (!record.material.liquid.enabled || entry == pool.objects.end())
+    throw std::invalid_argument("object '" + record.name + "' is not a liquid");
+  LiquidReading out;
+  out.restDensity = record.material.liquid.restDensity;
+  out.droppedNeighbours = pool.droppedNeighbours;
+  const std::vector<Real> density = liquidDensities(pool, s.particles.x);
+  const double h2 = s.lastSubstep * s.lastSubstep;
+  std::vector<double> compression;
+  for (Index i = entry->begin; i < entry->end; ++i) {
+    out.density.push_back(density[i]);
+    out.pressure.push_back(h2 > 0 && i < pool.lambdaTotal.size()
+                               ? -out.restDensity * pool.lambdaTotal[i] / (entry->particleMass * h2)
+                               : 0.0);
+    compression.push_back(std::max(0.0, density[i] / out.restDensity - 1));
+  }
+  if (!compression.empty()) {
+    for (double c : compression) out.meanCompression += c / double(compression.size());
+    std::sort(compression.begin(), compression.end());
+    out.maxCompression = compression.back();
+    const std::size_t rank = static_cast<std::size_t>(std::ceil(0.99 * double(compression.size())));
+    out.compressionP99 = compression[std::max<std::size_t>(rank, 1) - 1];
+  }
+  return out;
 }
 
 const Recoveries& World::recoveries() const {

@@ -31,7 +31,8 @@
 // with a pool and a system of its own, projected when the plan sweeps it: pressure (one volume
 // constraint per closed surface, systems/solver/pressure.h), attachment (nConstraints between
 // objects, to surfaces and to handles, systems/solver/attachments.h) and rigidity (one shape
-// matching cluster per object, systems/solver/shape_matching.h). Only the library expands
+// matching cluster per object, systems/solver/shape_matching.h) and density (one SPH density
+// constraint per liquid particle, systems/liquid/density_constraints.h). Only the library expands
 // `pools`; the public expansions ignore them.
 #define NUCLEON_CONSTRAINT_FAMILIES(X)                                                            \
   X(Stretch, "stretch", NUCLEON_POOL(stretch, 2, DistanceKernel, kDistanceBatch | kVertexJacobi)) \
@@ -44,7 +45,8 @@
   X(Volume, "volume", NUCLEON_POOL(volume, 4, VolumeKernel, kGenericSweep))                       \
   X(Pressure, "pressure", )                                                                       \
   X(Attachment, "attachment", )                                                                   \
-  X(Rigidity, "rigidity", )
+  X(Rigidity, "rigidity", )                                                                       \
+  X(Density, "density", )
 
 namespace nucleon {
 

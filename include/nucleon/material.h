@@ -39,6 +39,44 @@ struct Pressure {
   Real compliance = 0;
 };
 
+// A liquid (Nucleus's nParticles liquid simulation): the particles of a particle cloud keep the
+// liquid's rest density, estimated by SPH, with one density constraint each (position-based
+// fluids, Macklin and Müller 2013; ARCHITECTURE.md §2). Each particle weighs mass / count, so its
+// share of the liquid's volume is d³ = mass / (count × restDensity), d the particle spacing at
+// rest; the kernels reach kernelScale × d. A cubic lattice at spacing d is at rest density
+// (within 1% for kernelScale 2), so a block of particles with mass = restDensity × count × s³
+// starts at rest; a block packed closer expands to the rest density. The particles collide with
+// other objects as points of radius `thickness` (take about d / 2) and with the colliders; two
+// liquids do not collide, they mix through their density constraints.
+struct Liquid {
+  bool enabled = false;
+  Real restDensity = 1000;  // kg/m³ (water)
+  // Kernel support radius over the rest spacing d, in [1.5, 4]: more neighbours per particle
+  // (about 4.2 × kernelScale³) give a smoother estimate at a higher cost.
+  Real kernelScale = 2;
+  // Constraint-force mixing of the density constraints (PBF's ε), as a share of an interior
+  // particle's Σ w |∇C|² at rest, in [1e-6, 10]: softer, and robust where neighbours are few.
+  Real relaxation = Real(0.01);
+  // Artificial pressure against clumping (PBF's s_corr = −k (W(r)/W(Δq))^n, eq. 13): k as a
+  // share of the multiplier a 100% density error gets in the interior at rest, in [0, 1]; Δq as
+  // a share of the kernel radius in [0.01, 0.9]; n a whole number in [1, 8].
+  Real tensileStrength = Real(0.001);
+  Real tensileDistance = Real(0.2);
+  int tensileExponent = 4;
+  // XSPH viscosity (PBF eq. 17): each particle's velocity moves by c Σ (m_j/ρ_j)(v_j − v_i) W
+  // once per substep, c in [0, 1].
+  Real viscosity = Real(0.01);
+  // Vorticity confinement (PBF eq. 16, Fedkiw et al. 2001): an acceleration ε (N × ω) that puts
+  // back the swirl the solve damps, ε in m/s, [0, 100].
+  Real vorticity = 0;
+  // Surface tension (Akinci et al. 2013: cohesion between particles and a curvature term that
+  // shrinks the surface), γ in m⁴/(kg·s²) ≥ 0 (water at 2 cm particles: about 0.1–2).
+  Real surfaceTension = 0;
+  // Adhesion to other objects (m ≥ 0): the stickiness of the liquid's contacts with other
+  // objects' primitives: a particle that leaves a surface by less than this is pulled back.
+  Real adhesion = 0;
+};
+
 struct Material {
   // Mass of the whole object in kg, spread over its particles in proportion to the length, area
   // or volume around each (lumped mass). Must be positive and finite.
@@ -109,6 +147,8 @@ struct Material {
   // may have no pins (a pinned rigid body is a collider). Collider contacts, projected after it
   // in each round, may leave a rigid body off its rigid shape by as little as the sweeps allow.
   Real rigidity = 0;
+  // Particle clouds only: the cloud is a liquid (off by default).
+  Liquid liquid;
 };
 
 }  // namespace nucleon

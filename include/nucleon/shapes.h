@@ -56,4 +56,10 @@ ObjectDef boxSurface(const Vec3& center, const Vec3& size, int cells);
 // share the cube's main diagonal (a conforming mesh: neighbouring cubes agree on shared faces).
 ObjectDef tetBox(const Vec3& center, const Vec3& size, const std::array<int, 3>& cells);
 
+// Points on a cubic lattice of the given spacing filling a box (a particle cloud, e.g. a block of
+// liquid): round(size / spacing) points along each axis (at least 1), centred in the box, x
+// fastest, then y, then z. A liquid block starts at rest density with mass = rest density ×
+// count × spacing³.
+ObjectDef particleBlock(const Vec3& center, const Vec3& size, Real spacing);
+
 }  // namespace nucleon

@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 namespace nucleon {
 
@@ -115,6 +116,22 @@ struct PressureReading {
   // Pa, absolute: the ambient plus the pressure difference the last substep's solve applied to
   // the surface (its multiplier over h²). Where the solve converged it is `pressure`.
   double appliedPressure = 0;
+};
+
+// A liquid's state (World::liquid), per particle in the object's vertex order and summarised.
+struct LiquidReading {
+  double restDensity = 0;       // kg/m³
+  std::vector<double> density;  // SPH density at the positions now, kg/m³
+  // The pressure the last substep's density constraints applied, −ρ0 Λ / (m h²) (Pa above the
+  // free surface's; Λ the particle's multipliers summed over the substep's projections, m its
+  // mass).
+  std::vector<double> pressure;
+  // Of the compression max(ρ/ρ0 − 1, 0), which the constraints hold to 0: mean, 99th percentile
+  // (nearest rank) and max. A particle at the free surface, short of neighbours, has none.
+  double meanCompression = 0, compressionP99 = 0, maxCompression = 0;
+  // Neighbours the search dropped beyond a particle's list (all liquids, since creation): a
+  // particle packed far beyond rest density. 0 in a sound state.
+  std::uint64_t droppedNeighbours = 0;
 };
 
 // Quality measures of the current state (ARCHITECTURE.md §6).

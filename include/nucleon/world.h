@@ -133,6 +133,10 @@ class World {
   // KeepVolume) and the pressure the last substep's solve applied. Throws std::invalid_argument
   // for an object without pressure.
   PressureReading pressure(ObjectId id) const;
+  // The state of a liquid (Material::liquid) now (LiquidReading). Throws std::invalid_argument
+  // for an object that is not a liquid.
+  LiquidReading liquid(ObjectId id) const;
+  bool isLiquid(ObjectId id) const;
   bool hasPressure(ObjectId id) const;
   // Repairs the steps have made since the world was created (non-finite resets, particles pushed
   // out of colliders they should never have entered): zero in a healthy run.

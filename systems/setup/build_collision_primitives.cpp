@@ -37,6 +37,11 @@ void buildCollisionPrimitives(CollisionPrimitives& out, const std::vector<Object
   for (std::uint32_t o = 0; o < objects.size(); ++o)
     if (!objects[o].material.selfCollision)
       out.excludedPairs.push_back(CollisionPrimitives::pairKey(o, o));
+  // Liquids meet each other through their density constraints, not as colliding points.
+  for (std::uint32_t a = 0; a < objects.size(); ++a)
+    for (std::uint32_t b = a; b < objects.size(); ++b)
+      if (objects[a].material.liquid.enabled && objects[b].material.liquid.enabled)
+        out.excludedPairs.push_back(CollisionPrimitives::pairKey(a, b));
   std::sort(out.excludedPairs.begin(), out.excludedPairs.end());
   out.excludedPairs.erase(std::unique(out.excludedPairs.begin(), out.excludedPairs.end()),
                           out.excludedPairs.end());
@@ -52,7 +57,10 @@ void buildCollisionPrimitives(CollisionPrimitives& out, const std::vector<Object
     const Material& m = record.material;
     const Index first = record.firstParticle;
     const Real radius = m.thickness;
-    out.objectSurface.push_back({m.friction, m.staticFriction, m.restitution, m.stickiness});
+    // A liquid's adhesion is the stickiness of its contacts.
+    const Real stickiness =
+        m.liquid.enabled ? std::max(m.stickiness, m.liquid.adhesion) : m.stickiness;
+    out.objectSurface.push_back({m.friction, m.staticFriction, m.restitution, stickiness});
     out.objectFlags.push_back(static_cast<std::uint8_t>((m.collideVertices ? kCollideVertices : 0) |
                                                         (m.collideEdges ? kCollideEdges : 0) |
                                                         (m.collideFaces ? kCollideFaces : 0)));

@@ -7,6 +7,7 @@
 #include "systems/collision/broad_phase.h"
 #include "systems/collision/particle_contacts.h"
 #include "systems/collision/primitive_contacts.h"
+#include "systems/liquid/density_constraints.h"
 #include "systems/solver/attachments.h"
 #include "systems/solver/constraint_sweeps.h"
 #include "systems/solver/family_pools.h"
@@ -125,6 +126,10 @@ void runSweepOp(const SweepOp& op, const SweepPlan& plan, ConstraintPools& const
         projectShapeMatching(constraints.shapeMatching, sweep.particles,
                              plan.sweepsOfFamily[familyIndex(ConstraintFamily::Rigidity)],
                              sweep.objectRuns);
+      return;
+    case ConstraintFamily::Density:
+      if (constraints.liquid.size() > 0)
+        projectDensity(constraints.liquid, sweep.particles, sweep.objectRuns);
       return;
     default:
       break;
@@ -250,6 +255,7 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
   AttachmentPool& attachments = constraints.attachments;
   if (attachments.size() > 0) startAttachmentSubstep(attachments, context.endTime);
   if (pressure.size() > 0) startPressureSubstep(pressure, context.time, context.h);
+  if (constraints.liquid.size() > 0) startLiquidSubstep(constraints.liquid, particles);
   SweepContext sweep{particles, context.h, settings.relaxation, nullptr};
   sweep.chebyshevRho = settings.chebyshevRho;
   // A registered family that did not opt into Jacobi's acceleration turns it off for every
@@ -296,7 +302,7 @@ std::uint64_t countProjections(const ConstraintPools& pools, const ParticlePool&
     const std::uint8_t* runs =
         op.objectRunsOffset < 0 ? nullptr : plan.objectRuns.data() + op.objectRunsOffset;
     if (op.family == ConstraintFamily::Pressure || op.family == ConstraintFamily::Attachment ||
-        op.family == ConstraintFamily::Rigidity) {
+        op.family == ConstraintFamily::Rigidity || op.family == ConstraintFamily::Density) {
       total += pools.count(op.family);  // one projection per constraint, whatever its size
       continue;
     }

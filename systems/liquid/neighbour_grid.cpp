@@ -1,0 +1,118 @@
+#include "systems/liquid/neighbour_grid.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+namespace nucleon {
+namespace {
+
+using Cell = std::array<std::int32_t, 3>;
+
+Cell cellOf(const Vec3& x, Real invCell) {
+  // Far-flung particles (a splash thrown away, a non-finite position the update will reset)
+  // land in clamped cells: the grid stays valid, and distances decide who is a neighbour.
+  auto axis = [&](Real c) {
+    const Real f = std::floor(c * invCell);
+    return static_cast<std::int32_t>(
+        std::clamp(std::isfinite(f) ? f : Real(0), Real(-1e9), Real(1e9)));
+  };
+  return {axis(x.x()), axis(x.y()), axis(x.z())};
+}
+
+// Spatial hash of a cell (Teschner et al. 2003) into a table of a power-of-two size.
+std::uint32_t keyOf(const Cell& c, std::uint32_t mask) {
+  return (static_cast<std::uint32_t>(c[0]) * 73856093u ^
+          static_cast<std::uint32_t>(c[1]) * 19349663u ^
+          static_cast<std::uint32_t>(c[2]) * 83492791u) &
+         mask;
+}
+
+}  // namespace
+
+int neighbourStride(Real kernelScale) {
+  const double atRest = 4.0 / 3.0 * std::numbers::pi * std::pow(double(kernelScale), 3);
+  const int stride = static_cast<int>(std::ceil(1.6 * atRest / 8.0)) * 8;
+  return std::clamp(stride, 16, kMaxLiquidNeighbours);
+}
+
+void buildNeighbourLists(LiquidPool& pool, std::span<const Vec3> x, std::span<const Real> w) {
+  const std::size_t n = pool.size();
+  if (n == 0) return;
+  std::uint32_t tableSize = 1024;
+  while (tableSize < 2 * n) tableSize *= 2;
+  const std::uint32_t mask = tableSize - 1;
+  const int stride = pool.neighbourStride;
+  pool.cellKey.resize(n);
+  pool.slotParticle.resize(n);
+  pool.slotObject.resize(n);
+  pool.mass.resize(n);
+  pool.inverseMass.resize(n);
+  pool.position.resize(n);
+  pool.velocity.resize(n);
+  pool.cellStart.assign(tableSize + 1, 0);
+  pool.neighbours.resize(n * stride);
+  pool.neighbourCount.resize(n);
+  const Real invCell = 1 / pool.kernels.radius;
+
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i < range.end(); ++i)
+      pool.cellKey[i] = keyOf(cellOf(x[pool.particle[i]], invCell), mask);
+  });
+  // Counting sort by key, stable: within a key the particles stay in list order.
+  for (std::size_t i = 0; i < n; ++i) ++pool.cellStart[pool.cellKey[i] + 1];
+  for (std::uint32_t k = 0; k < tableSize; ++k) pool.cellStart[k + 1] += pool.cellStart[k];
+  pool.cellCursor.assign(pool.cellStart.begin(), pool.cellStart.end() - 1);
+  for (std::size_t i = 0; i < n; ++i)
+    pool.slotParticle[pool.cellCursor[pool.cellKey[i]]++] = static_cast<Index>(i);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const auto& range) {
+    for (std::size_t s = range.begin(); s < range.end(); ++s) {
+      const Index i = pool.slotParticle[s], particle = pool.particle[i];
+      pool.slotObject[s] = pool.objectOf[i];
+      pool.mass[s] = pool.objects[pool.objectOf[i]].particleMass;
+      pool.inverseMass[s] = w[particle];
+      pool.position[s] = x[particle];
+    }
+  });
+
+  const Real r2max = pool.kernels.radius2;
+  const Vec3* position = pool.position.data();
+  pool.droppedNeighbours += tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n), std::uint64_t(0),
+      [&](const auto& range, std::uint64_t dropped) {
+        for (std::size_t s = range.begin(); s < range.end(); ++s) {
+          const Vec3 xs = position[s];
+          const Cell c = cellOf(xs, invCell);
+          std::array<std::uint32_t, 27> keys;
+          int keyCount = 0, count = 0;
+          Index* out = pool.neighbours.data() + s * stride;
+          for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+              for (int dx = -1; dx <= 1; ++dx) {
+                const std::uint32_t key = keyOf({c[0] + dx, c[1] + dy, c[2] + dz}, mask);
+                // Two cells of the 27 may share a key: scan each key once.
+                if (std::find(keys.begin(), keys.begin() + keyCount, key) !=
+                    keys.begin() + keyCount)
+                  continue;
+                keys[keyCount++] = key;
+                for (Index t = pool.cellStart[key]; t < pool.cellStart[key + 1]; ++t) {
+                  if (t == s || (position[t] - xs).squaredNorm() >= r2max) continue;
+                  if (count < stride)
+                    out[count++] = t;
+                  else
+                    ++dropped;
+                }
+              }
+          pool.neighbourCount[s] = static_cast<std::uint16_t>(count);
+        }
+        return dropped;
+      },
+      std::plus<>());
+}
+
+}  // namespace nucleon

@@ -1,0 +1,46 @@
+// SPH kernels of the liquids (Müller et al. 2003; Akinci et al. 2013), for one kernel radius H.
+#pragma once
+
+#include <cmath>
+#include <numbers>
+
+#include "components/liquid_pool.h"
+
+namespace nucleon {
+
+inline LiquidKernels makeLiquidKernels(Real radius) {
+  const double H = radius, pi = std::numbers::pi;
+  LiquidKernels k;
+  k.radius = radius;
+  k.radius2 = radius * radius;
+  k.poly6 = static_cast<Real>(315.0 / (64.0 * pi * std::pow(H, 9)));
+  k.spiky = static_cast<Real>(45.0 / (pi * std::pow(H, 6)));
+  k.cohesion = static_cast<Real>(32.0 / (pi * std::pow(H, 9)));
+  return k;
+}
+
+// Poly6, W(r) = 315/(64π H⁹) (H² − r²)³ for r < H, of the squared distance.
+inline Real poly6(const LiquidKernels& k, Real r2) {
+  if (r2 >= k.radius2) return 0;
+  const Real d = k.radius2 - r2;
+  return k.poly6 * d * d * d;
+}
+
+// The spiky kernel's gradient at d = x_i − x_j, ∇W = −45/(π H⁶) (H − r)² d/r: it points from i
+// towards j, and does not vanish as r → 0, so close particles still push apart.
+inline Vec3 spikyGradient(const LiquidKernels& k, const Vec3& d, Real r2) {
+  if (r2 >= k.radius2 || r2 <= Real(1e-24)) return Vec3::Zero();
+  const Real r = std::sqrt(r2), s = k.radius - r;
+  return d * (-k.spiky * s * s / r);
+}
+
+// Akinci et al. 2013's cohesion spline C(r): attracting for r > H/2, repelling below.
+inline Real cohesionSpline(const LiquidKernels& k, Real r) {
+  if (r >= k.radius || r <= 0) return 0;
+  const Real H = k.radius, a = (H - r) * (H - r) * (H - r) * r * r * r;
+  if (2 * r > H) return k.cohesion * a;
+  const Real H3 = H * H * H;
+  return k.cohesion * (2 * a - H3 * H3 / 64);
+}
+
+}  // namespace nucleon
