@@ -29,8 +29,8 @@ struct ContactPool {
 
   // Static (set with the derived tables): per particle, how much farther than its own motion it
   // is looked for within a collider's reach; empty when none is. A liquid particle's is the kernel
-  // radius: a density projection moves a particle by up to about that much, and one pushed into
-  // a wall without a contact would have to be repaired.
+  // radius times kLiquidContactReach: the most the density projections of a substep move it, and
+  // one pushed into a wall without a contact would have to be repaired.
   std::vector<Real> extraReach;
 
   // Build scratch: per particle, how many contacts it has (then, after the scan, where its run

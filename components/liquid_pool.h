@@ -43,6 +43,13 @@ struct LiquidObject {
   Real tensileReference = 0;  // 1 / W(Δq)
 };
 
+// How far a liquid particle is looked for within a collider's reach beyond its own motion, in
+// kernel radii (ContactPool::extraReach); the density projections of a substep together move a
+// particle at most that far (projectDensity's maxMove is this over the substep's sweeps). Two:
+// a wave striking a wall at 4 m/s, 1.7 cm per substep at 2 cm spacing, asked for moves of up to
+// one kernel radius in a projection of three.
+constexpr Real kLiquidContactReach = 2;
+
 struct LiquidPool {
   LiquidKernels kernels;  // every liquid of a world has the same kernel radius
   std::vector<LiquidObject> objects;
@@ -68,6 +75,10 @@ struct LiquidPool {
   int neighbourStride = 0;
   std::vector<Index> neighbours;
   std::vector<std::uint16_t> neighbourCount;
+  // Per neighbour entry, from a projection's λ pass for its Δp pass (the positions are the same):
+  // the spiky gradient's scale (∇W = (x_i − x_j) × it) and the artificial pressure's term.
+  std::vector<Real> gradientScale;
+  std::vector<Real> tensileTerm;
   // Per-slot scratch of the projections and the velocity pass.
   std::vector<Real> density;    // ρ (kg/m³), from the last evaluation
   std::vector<Real> lambda;     // λ of the last projection
@@ -78,6 +89,11 @@ struct LiquidPool {
   // Λ. Its pressure is −ρ0 Λ / (m h²): the SPH pressure force's move h² Σ −m (p_i + p_j)/ρ0² ∇W
   // is the projections' Σ (λ_i + λ_j)/ρ0 ∇W at equal masses (w = 1/m).
   std::vector<Real> lambdaTotal;
+  // Projections whose move of a particle was shortened to the most a projection may move it
+  // (projectDensity), counted per particle; read and cleared by the solve's report. Per-slot
+  // flags, summed after each projection.
+  std::vector<std::uint8_t> limited;
+  std::uint64_t limitedMoves = 0;
   // Neighbours dropped beyond the stride, summed over substeps since creation.
   std::uint64_t droppedNeighbours = 0;
 

@@ -30,8 +30,8 @@ TEST(SweepPlan, DefaultGivesEveryFamilyTheIterationCountInTheDefaultOrder) {
   SolverSettings solver;
   solver.iterations = 2;
   const SweepPlan plan = planSweeps(solver, {});
-  // stretch, tether, shear, bend, twist, volume, pressure, attachment, rigidity, twice
-  EXPECT_EQ(sequence(plan), "sThbtvparsThbtvpar");
+  // stretch, tether, shear, bend, twist, volume, pressure, attachment, rigidity, density, twice
+  EXPECT_EQ(sequence(plan), "sThbtvpardsThbtvpard");
   EXPECT_EQ(plan.rounds, 2);
 }
 

@@ -209,6 +209,7 @@ void StepGraph::runStage(int stage) {
                  s.recoveries.collapsedPressureVolumes, c.step);
       logRepairs(s.recoveries, solve.limitedPressureSteps, s.recoveries.limitedPressureSteps,
                  c.step);
+      logRepairs(s.recoveries, solve.limitedDensityMoves, s.recoveries.limitedDensityMoves, c.step);
       break;
     }
     case kUpdate: {

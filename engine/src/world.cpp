@@ -732,7 +732,7 @@ void World::step(double dt) {
     const LiquidPool& liquids = s.constraints.liquid;
     s.contacts.extraReach.assign(liquids.size() > 0 ? s.particles.size() : 0, Real(0));
     for (Index particle : liquids.particle)
-      s.contacts.extraReach[particle] = liquids.kernels.radius;
+      s.contacts.extraReach[particle] = kLiquidContactReach * liquids.kernels.radius;
     s.kinematicContactDistance = smallestKinematicContact(s.primitives, s.objects, s.kinematics);
     s.objectEdgeLength = medianEdgeLengths(s.objects, s.particles);
     s.topologyDirty = false;

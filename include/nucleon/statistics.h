@@ -46,9 +46,15 @@ struct Recoveries {
   // Gas projections whose Newton step asked to change the volume by more than half of it, held to
   // half: the linearised volume is far off there (a surface collapsing or torn inside out).
   std::uint64_t limitedPressureSteps = 0;
+  // Moves of a liquid particle by one density projection shortened to the kernel radius over the
+  // substep's density sweeps, so that the projections together stay within the collider contacts'
+  // reach: a particle packed far beyond rest density (a liquid driven into a corner at a speed
+  // its substeps do not resolve).
+  std::uint64_t limitedDensityMoves = 0;
   std::uint64_t firstStep = 0;  // 1-based step of the first repair; 0 if there was none
   std::uint64_t total() const {
-    return nonFinite + missedContacts + collapsedPressureVolumes + limitedPressureSteps;
+    return nonFinite + missedContacts + collapsedPressureVolumes + limitedPressureSteps +
+           limitedDensityMoves;
   }
 };
 

@@ -93,6 +93,7 @@ void appendLiquidObject(LiquidPool& pool, std::uint32_t objectIndex, Index first
   pool.delta.resize(n);
   pool.vorticity.resize(n);
   pool.normal.resize(n);
+  pool.limited.resize(n);
 }
 
 void startLiquidSubstep(LiquidPool& pool, const ParticlePool& particles) {
@@ -100,7 +101,8 @@ void startLiquidSubstep(LiquidPool& pool, const ParticlePool& particles) {
   std::fill(pool.lambdaTotal.begin(), pool.lambdaTotal.end(), Real(0));
 }
 
-void projectDensity(LiquidPool& pool, ParticlePool& particles, const std::uint8_t* objectRuns) {
+void projectDensity(LiquidPool& pool, ParticlePool& particles, Real maxMove,
+                    const std::uint8_t* objectRuns) {
   const std::size_t n = pool.size();
   const LiquidKernels& k = pool.kernels;
   const int stride = pool.neighbourStride;
@@ -119,10 +121,16 @@ void projectDensity(LiquidPool& pool, ParticlePool& particles, const std::uint8_
     const Index* list = pool.neighbours.data() + s * stride;
     for (int c = 0; c < pool.neighbourCount[s]; ++c) {
       const Index t = list[c];
-      const Vec3 d = ps - pool.position[t];
+      const Vec3 d =
+          pairOffset(k, ps - pool.position[t], pool.slotParticle[s], pool.slotParticle[t]);
       const Real r2 = d.squaredNorm();
       rho += pool.mass[t] * poly6(k, r2);
-      const Vec3 g = pool.mass[t] * spikyGradient(k, d, r2);
+      // ∇W = d × the scale, kept for the Δp pass with the artificial pressure's term.
+      const Real scale = spikyGradientScale(k, r2);
+      pool.gradientScale[s * stride + c] = scale;
+      pool.tensileTerm[s * stride + c] =
+          o.tensileScale > 0 ? -o.tensileScale * tensileRatio(k, o, r2) : Real(0);
+      const Vec3 g = (pool.mass[t] * scale) * d;
       own += g;
       others += pool.inverseMass[t] * g.squaredNorm();
     }
@@ -151,17 +159,30 @@ void projectDensity(LiquidPool& pool, ParticlePool& particles, const std::uint8_
     const Index* list = pool.neighbours.data() + s * stride;
     for (int c = 0; c < pool.neighbourCount[s]; ++c) {
       const Index t = list[c];
-      const Vec3 d = ps - pool.position[t];
-      const Real r2 = d.squaredNorm();
-      Real scale = (ls + (o.tensileScale > 0 ? -o.tensileScale * tensileRatio(k, o, r2) : 0)) *
-                       pool.mass[t] * o.invRestDensity +
-                   pool.lambda[t] * pool.mass[s] * pool.objects[pool.slotObject[t]].invRestDensity;
-      delta += scale * spikyGradient(k, d, r2);
+      const Vec3 d =
+          pairOffset(k, ps - pool.position[t], pool.slotParticle[s], pool.slotParticle[t]);
+      const Real scale =
+          (ls + pool.tensileTerm[s * stride + c]) * pool.mass[t] * o.invRestDensity +
+          pool.lambda[t] * pool.mass[s] * pool.objects[pool.slotObject[t]].invRestDensity;
+      delta += (scale * pool.gradientScale[s * stride + c]) * d;
     }
-    pool.delta[s] = ws * delta;
+    delta *= ws;
+    // At most maxMove per projection, so that a substep's density projections together never
+    // carry a particle beyond the collider contacts' reach (ContactPool::extraReach).
+    const Real length2 = delta.squaredNorm();
+    if (length2 > maxMove * maxMove) {
+      delta *= maxMove / std::sqrt(length2);
+      pool.limited[s] = 1;
+    }
+    pool.delta[s] = delta;
   });
   forEachLiquidParticle(
       n, [&](std::size_t s) { particles.p[pool.particle[pool.slotParticle[s]]] += pool.delta[s]; });
+  for (std::size_t s = 0; s < n; ++s)
+    if (pool.limited[s]) {
+      ++pool.limitedMoves;
+      pool.limited[s] = 0;
+    }
 }
 
 std::vector<Real> liquidDensities(const LiquidPool& pool, std::span<const Vec3> x) {

@@ -35,8 +35,9 @@ void appendLiquidObject(LiquidPool& pool, std::uint32_t objectIndex, Index first
 void startLiquidSubstep(LiquidPool& pool, const ParticlePool& particles);
 
 // One Jacobi projection of every liquid particle's density constraint on p (with `objectRuns`,
-// only the particles of the objects it marks).
-void projectDensity(LiquidPool& pool, ParticlePool& particles,
+// only the particles of the objects it marks). A move longer than maxMove is shortened to it and
+// counted in pool.limitedMoves.
+void projectDensity(LiquidPool& pool, ParticlePool& particles, Real maxMove,
                     const std::uint8_t* objectRuns = nullptr);
 
 // Each liquid particle's SPH density (kg/m³) at positions x, in the pool's list order (neighbours

@@ -51,7 +51,7 @@ void applyLiquidVelocities(LiquidPool& pool, ParticlePool& particles, Real h) {
       const Index* list = pool.neighbours.data() + s * stride;
       for (int c = 0; c < pool.neighbourCount[s]; ++c) {
         const Index t = list[c];
-        const Vec3 d = x[s] - x[t];
+        const Vec3 d = pairOffset(k, x[s] - x[t], pool.slotParticle[s], pool.slotParticle[t]);
         const Vec3 g = (pool.mass[t] / pool.density[t]) * spikyGradient(k, d, d.squaredNorm());
         omega += g.cross(v[t] - v[s]);
         normal += g;
@@ -72,7 +72,7 @@ void applyLiquidVelocities(LiquidPool& pool, ParticlePool& particles, Real h) {
     const Index* list = pool.neighbours.data() + s * stride;
     for (int c = 0; c < pool.neighbourCount[s]; ++c) {
       const Index t = list[c];
-      const Vec3 d = x[s] - x[t];
+      const Vec3 d = pairOffset(k, x[s] - x[t], pool.slotParticle[s], pool.slotParticle[t]);
       const Real r2 = d.squaredNorm(), volume = pool.mass[t] / pool.density[t];
       if (settings.viscosity > 0) xsph += volume * poly6(k, r2) * (v[t] - vs);
       if (settings.vorticity > 0)

@@ -57,6 +57,8 @@ void buildNeighbourLists(LiquidPool& pool, std::span<const Vec3> x, std::span<co
   pool.velocity.resize(n);
   pool.cellStart.assign(tableSize + 1, 0);
   pool.neighbours.resize(n * stride);
+  pool.gradientScale.resize(n * stride);
+  pool.tensileTerm.resize(n * stride);
   pool.neighbourCount.resize(n);
   const Real invCell = 1 / pool.kernels.radius;
 
@@ -85,29 +87,45 @@ void buildNeighbourLists(LiquidPool& pool, std::span<const Vec3> x, std::span<co
   pool.droppedNeighbours += tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, n), std::uint64_t(0),
       [&](const auto& range, std::uint64_t dropped) {
+        // The runs of slots of the 27 keys around the last cell seen: slots are sorted by key, so
+        // the particles of a cell mostly follow each other and share them.
+        std::array<std::array<Index, 2>, 27> runs;
+        int runCount = 0;
+        Cell runsOf = {0, 0, 0};
+        bool haveRuns = false;
         for (std::size_t s = range.begin(); s < range.end(); ++s) {
           const Vec3 xs = position[s];
           const Cell c = cellOf(xs, invCell);
-          std::array<std::uint32_t, 27> keys;
-          int keyCount = 0, count = 0;
-          Index* out = pool.neighbours.data() + s * stride;
-          for (int dz = -1; dz <= 1; ++dz)
-            for (int dy = -1; dy <= 1; ++dy)
-              for (int dx = -1; dx <= 1; ++dx) {
-                const std::uint32_t key = keyOf({c[0] + dx, c[1] + dy, c[2] + dz}, mask);
-                // Two cells of the 27 may share a key: scan each key once.
-                if (std::find(keys.begin(), keys.begin() + keyCount, key) !=
-                    keys.begin() + keyCount)
-                  continue;
-                keys[keyCount++] = key;
-                for (Index t = pool.cellStart[key]; t < pool.cellStart[key + 1]; ++t) {
-                  if (t == s || (position[t] - xs).squaredNorm() >= r2max) continue;
-                  if (count < stride)
-                    out[count++] = t;
-                  else
-                    ++dropped;
+          if (!haveRuns || c != runsOf) {
+            std::array<std::uint32_t, 27> keys;
+            std::uint64_t seen = 0;  // bit (key mod 64) of every key taken: most need no search
+            runCount = 0;
+            for (int dz = -1; dz <= 1; ++dz)
+              for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                  const std::uint32_t key = keyOf({c[0] + dx, c[1] + dy, c[2] + dz}, mask);
+                  // Two cells of the 27 may share a key: scan each key once.
+                  const std::uint64_t bit = std::uint64_t(1) << (key & 63);
+                  if ((seen & bit) != 0 && std::find(keys.begin(), keys.begin() + runCount, key) !=
+                                               keys.begin() + runCount)
+                    continue;
+                  seen |= bit;
+                  keys[runCount] = key;
+                  runs[runCount++] = {pool.cellStart[key], pool.cellStart[key + 1]};
                 }
-              }
+            runsOf = c;
+            haveRuns = true;
+          }
+          int count = 0;
+          Index* out = pool.neighbours.data() + s * stride;
+          for (int r = 0; r < runCount; ++r)
+            for (Index t = runs[r][0]; t < runs[r][1]; ++t) {
+              if ((position[t] - xs).squaredNorm() >= r2max || t == s) continue;
+              if (count < stride)
+                out[count++] = t;
+              else
+                ++dropped;
+            }
           pool.neighbourCount[s] = static_cast<std::uint16_t>(count);
         }
         return dropped;

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 
 #include "components/liquid_pool.h"
@@ -26,12 +27,41 @@ inline Real poly6(const LiquidKernels& k, Real r2) {
   return k.poly6 * d * d * d;
 }
 
+// The spiky kernel's gradient over d = x_i − x_j: ∇W = d × this, −45/(π H⁶) (H − r)²/r.
+inline Real spikyGradientScale(const LiquidKernels& k, Real r2) {
+  if (r2 >= k.radius2 || r2 <= Real(1e-24)) return 0;
+  const Real r = std::sqrt(r2), s = k.radius - r;
+  return -k.spiky * s * s / r;
+}
+
 // The spiky kernel's gradient at d = x_i − x_j, ∇W = −45/(π H⁶) (H − r)² d/r: it points from i
 // towards j, and does not vanish as r → 0, so close particles still push apart.
 inline Vec3 spikyGradient(const LiquidKernels& k, const Vec3& d, Real r2) {
   if (r2 >= k.radius2 || r2 <= Real(1e-24)) return Vec3::Zero();
   const Real r = std::sqrt(r2), s = k.radius - r;
   return d * (-k.spiky * s * s / r);
+}
+
+// The offset x_i − x_j of two liquid particles (liquid list indices i, j) for the kernels'
+// gradients. Two particles pressed into the same point (a corner of two walls and the floor holds
+// each at the same three coordinates) have no direction between them, and their gradients would
+// vanish: nothing would separate them, and a pile of them makes a constraint with a large error and
+// a vanishing denominator, whose multiplier throws its neighbours metres. Below 10⁻⁴ H they get a
+// fixed direction of their own, opposite for the two (j − i hashed), at that distance.
+inline Vec3 pairOffset(const LiquidKernels& k, const Vec3& d, Index i, Index j) {
+  const Real least = Real(1e-4) * k.radius;
+  if (d.squaredNorm() >= least * least) return d;
+  const Index a = i < j ? i : j, b = i < j ? j : i;
+  std::uint32_t hash = a * 2654435761u ^ b * 2246822519u;
+  Vec3 direction;
+  for (int axis = 0; axis < 3; ++axis) {
+    hash ^= hash >> 15;
+    hash *= 2246822519u;
+    hash ^= hash >> 13;
+    direction[axis] = Real(hash & 0xffff) / Real(0xffff) - Real(0.5);
+  }
+  direction.normalize();
+  return (i < j ? least : -least) * direction;
 }
 
 // Akinci et al. 2013's cohesion spline C(r): attracting for r > H/2, repelling below.

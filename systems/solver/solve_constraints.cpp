@@ -129,7 +129,11 @@ void runSweepOp(const SweepOp& op, const SweepPlan& plan, ConstraintPools& const
       return;
     case ConstraintFamily::Density:
       if (constraints.liquid.size() > 0)
-        projectDensity(constraints.liquid, sweep.particles, sweep.objectRuns);
+        projectDensity(
+            constraints.liquid, sweep.particles,
+            kLiquidContactReach * constraints.liquid.kernels.radius /
+                Real(std::max(1, plan.sweepsOfFamily[familyIndex(ConstraintFamily::Density)])),
+            sweep.objectRuns);
       return;
     default:
       break;
@@ -282,6 +286,8 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
   report.collapsedPressureProjections = pressure.collapsedProjections;
   report.limitedPressureSteps = pressure.limitedSteps;
   pressure.collapsedProjections = pressure.limitedSteps = 0;
+  report.limitedDensityMoves = constraints.liquid.limitedMoves;
+  constraints.liquid.limitedMoves = 0;
   if (plan.ops.empty() && anyContacts)
     report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
   if (pools.colliders.size() > 0)

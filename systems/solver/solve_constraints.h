@@ -72,6 +72,7 @@ struct SolveReport {
   std::size_t cascadeProjections = 0;
   std::uint64_t collapsedPressureProjections = 0;  // gas pressures taken at the least volume
   std::uint64_t limitedPressureSteps = 0;          // gas steps held to half the volume
+  std::uint64_t limitedDensityMoves = 0;           // liquid moves shortened (projectDensity)
   CrossingReport crossing;
 };
 
