@@ -558,7 +558,7 @@ SceneObject readObject(const Reader& o, const std::string& folder,
       liquid.viscosity = static_cast<Real>(q.number("viscosity", liquid.viscosity, 0, 1));
       liquid.vorticity = static_cast<Real>(q.number("vorticity", liquid.vorticity, 0, 100));
       liquid.surfaceTension =
-          static_cast<Real>(q.number("surface_tension", liquid.surfaceTension, 0, 1e6));
+          static_cast<Real>(q.number("surface_tension", liquid.surfaceTension, 0, 1));
       liquid.adhesion = static_cast<Real>(q.number("adhesion", liquid.adhesion, 0, 1e3));
     }
     if (m.has("collide")) {

@@ -115,8 +115,8 @@ void validateCommon(const ObjectDef& def, const std::string& what, std::size_t f
             what + ": liquid tensile_exponent must be a whole number in [1, 8]");
     require(within(liquid.viscosity, 0, 1), what + ": liquid viscosity must be in [0, 1]");
     require(within(liquid.vorticity, 0, 100), what + ": liquid vorticity must be in [0, 100] m/s");
-    require(within(liquid.surfaceTension, 0, 1e6),
-            what + ": liquid surface_tension must be in [0, 1e6]");
+    require(within(liquid.surfaceTension, 0, 1),
+            what + ": liquid surface_tension must be in [0, 1]");
     require(within(liquid.adhesion, 0, 1e3), what + ": liquid adhesion must be in [0, 1e3] m");
     require(m.rigidity == 0, what + ": a liquid cannot have rigidity");
   }

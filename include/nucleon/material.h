@@ -70,7 +70,9 @@ struct Liquid {
   // back the swirl the solve damps, ε in m/s, [0, 100].
   Real vorticity = 0;
   // Surface tension (Akinci et al. 2013: cohesion between particles and a curvature term that
-  // shrinks the surface), γ in m⁴/(kg·s²) ≥ 0 (water at 2 cm particles: about 0.1–2).
+  // shrinks the surface), γ in [0, 1]. The cohesion's pull on a particle, γ Σ m_j C(r), does not
+  // depend on the particle size at a given rest density: for water, 0.005–1 rounds a cube into a
+  // ball within a second, and at 2 the pull outran two substeps and threw the particles apart.
   Real surfaceTension = 0;
   // Adhesion to other objects (m ≥ 0): the stickiness of the liquid's contacts with other
   // objects' primitives: a particle that leaves a surface by less than this is pulled back.
