@@ -228,6 +228,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
   const double dt = 1.0 / scene.fps;
   nlohmann::json perFrame = nlohmann::json::array(), energy = nlohmann::json::array();
   double stepSeconds = 0;
+  std::vector<double> frameMs;  // each frame's step, for the percentiles
   // What keeps a run from being clean, frame by frame (every frame counts, not only the last).
   FailureTally failures;
   Progress progress(err, scene.frames, o.quiet);
@@ -238,6 +239,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
     world.step(dt);
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     stepSeconds += seconds;
+    frameMs.push_back(seconds * 1e3);
     const Measures m = world.measure();
     energy.push_back(m.kineticEnergy + m.potentialEnergy);
     failures.add(m);
@@ -359,6 +361,22 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
                                  {"pressure", p.pressure},
                                  {"gas", p.gas}});
   }
+  // The frames' step times by nearest rank: a tear's rebuild shows in the tail, not the mean.
+  if (!frameMs.empty()) {
+    std::sort(frameMs.begin(), frameMs.end());
+    const auto rank = [&](double q) {
+      const auto r = static_cast<std::size_t>(std::ceil(q * double(frameMs.size()) - 1e-9));
+      return frameMs[std::min(frameMs.size(), std::max<std::size_t>(r, 1)) - 1];
+    };
+    stats["frame_ms"] = {{"p50", rank(0.5)}, {"p99", rank(0.99)}, {"max", frameMs.back()}};
+  }
+  // Tearable cloths: edges cut, vertices split and tears refused for want of spare particles.
+  if (const TearReport& tear = world.tearReport(); tear.spareParticles > 0)
+    stats["tearing"] = {{"torn_edges", tear.tornEdges},
+                        {"new_vertices", tear.newVertices},
+                        {"refused_tears", tear.refusedTears},
+                        {"tear_steps", tear.tearSteps},
+                        {"spare_particles", tear.spareParticles}};
   // Multigrid's fine-sweep backend (scene key solver.smoother).
   if (scene.solver.kind == SolverKind::Multigrid)
     stats["smoother"] = toString(scene.solver.smoother);

@@ -106,6 +106,16 @@ struct CollisionReport {
   std::uint64_t firstCrossingStep = 0;  // 1-based step of the first fail-safe action; 0 if none
 };
 
+// What tearing (Material::tear) did since the world was created.
+struct TearReport {
+  std::uint64_t tornEdges = 0;    // edges cut in two (each now borders one triangle per side)
+  std::uint64_t newVertices = 0;  // vertex splits: spare particles taken into use
+  // Tears refused because the cloth's spare particles had run out (Tear::maxNewVertices).
+  std::uint64_t refusedTears = 0;
+  std::uint64_t tearSteps = 0;       // steps after which at least one vertex split
+  std::uint64_t spareParticles = 0;  // spare particles reserved by tearable cloths, used or not
+};
+
 // A pressured surface's state (World::pressure).
 struct PressureReading {
   double volume = 0;      // m³, enclosed now
