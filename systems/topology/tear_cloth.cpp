@@ -51,30 +51,50 @@ bool onBoundary(const std::vector<std::array<Index, 3>>& triangles, const std::v
 struct Split {
   std::vector<Index> keep, move;  // triangles that keep the vertex, and those its copy takes
   double keepArea = 0, moveArea = 0;
+  bool byPlane = true;  // false: the fallback at the widest gap
 };
 
 // The split of vertex v by the plane through it perpendicular to its edge to u (positions now):
 // the triangles whose centroid lies on u's side keep v, the others take the copy. The crack then
-// opens across the tension that stretched the edge, as a brittle sheet's does. Areas are the
-// rest shape's, which the lumped masses come from.
+// opens across the tension that stretched the edge, as a brittle sheet's does. When the plane
+// leaves one side empty (an edge standing out of the sheet, a vertex pulled out like a tent's
+// pole: every triangle then lies behind it), the fan is cut at the widest gap between its
+// triangles' centroids along the edge instead, which separates the triangles pulled along with
+// the edge from the rest. Areas are the rest shape's, which the lumped masses come from.
 Split splitOf(const std::vector<std::array<Index, 3>>& triangles, const std::vector<Index>& fan,
               Index v, Index u, const std::vector<Vec3>& x, const std::vector<Vec3>& rest,
               Index first) {
-  Split s;
   const Vec3d xv = at(x, first + v), d = at(x, first + u) - xv;
-  for (Index t : fan) {
-    const auto& tri = triangles[t];
+  std::vector<double> along(fan.size());
+  for (std::size_t k = 0; k < fan.size(); ++k) {
     Vec3d centroid = Vec3d::Zero();
-    for (Index k : tri) centroid += at(x, first + k);
-    centroid /= 3;
+    for (Index i : triangles[fan[k]]) centroid += at(x, first + i);
+    along[k] = (centroid / 3 - xv).dot(d);
+  }
+  double threshold = 0;
+  Split s;
+  const auto [lo, hi] = std::minmax_element(along.begin(), along.end());
+  if (!along.empty() && !(*lo <= 0 && *hi > 0)) {
+    std::vector<double> sorted = along;
+    std::sort(sorted.begin(), sorted.end());
+    double widest = -1;
+    for (std::size_t k = 1; k < sorted.size(); ++k)
+      if (sorted[k] - sorted[k - 1] > widest) {
+        widest = sorted[k] - sorted[k - 1];
+        threshold = (sorted[k] + sorted[k - 1]) / 2;
+      }
+    s.byPlane = false;
+  }
+  for (std::size_t k = 0; k < fan.size(); ++k) {
+    const auto& tri = triangles[fan[k]];
     const Vec3d r0 = at(rest, first + tri[0]);
     const double area =
         (at(rest, first + tri[1]) - r0).cross(at(rest, first + tri[2]) - r0).norm() / 2;
-    if ((centroid - xv).dot(d) > 0) {
-      s.keep.push_back(t);
+    if (along[k] > threshold) {
+      s.keep.push_back(fan[k]);
       s.keepArea += area;
     } else {
-      s.move.push_back(t);
+      s.move.push_back(fan[k]);
       s.moveArea += area;
     }
   }
@@ -167,9 +187,10 @@ std::size_t tearObject(ObjectRecord& record, std::uint32_t object, ParticlePool&
   for (const Candidate& candidate : candidates) {
     const Index a = edges[candidate.edge][0], b = edges[candidate.edge][1];
     if (touched[a] || touched[b]) continue;  // its fan changed: judged again after the next step
-    // Which end splits: a free one whose plane leaves triangles on both sides; of two, the one on
-    // the boundary (a crack's tip lies on its lips, and a crack starts at the cloth's border
-    // rather than as a slit inside), then the one with more over-stretched edges.
+    // Which end splits: a free one whose plane leaves triangles on both sides (else one the
+    // fallback splits); of two, the one on the boundary (a crack's tip lies on its lips, and a
+    // crack starts at the cloth's border rather than as a slit inside), then the one with more
+    // over-stretched edges.
     Index chosen = n, other = n;
     Split split;
     int bestRank = -1;
@@ -177,7 +198,8 @@ std::size_t tearObject(ObjectRecord& record, std::uint32_t object, ParticlePool&
       if (particles.w[first + v] <= 0) continue;  // pins and animated pins never split
       Split s = splitOf(triangles, fans[v], v, u, particles.x, particles.restPosition, first);
       if (s.keep.empty() || s.move.empty() || !(s.keepArea > 0) || !(s.moveArea > 0)) continue;
-      const int rank = (onBoundary(triangles, fans[v], v) ? 1 << 20 : 0) + overStretched[v];
+      const int rank = (s.byPlane ? 1 << 21 : 0) +
+                       (onBoundary(triangles, fans[v], v) ? 1 << 20 : 0) + overStretched[v];
       if (rank > bestRank) bestRank = rank, chosen = v, other = u, split = std::move(s);
     }
     if (chosen == n) continue;
