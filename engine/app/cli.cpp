@@ -250,6 +250,10 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
                         {"inside_colliders", m.insideColliders},
                         {"contacts", m.contacts},
                         {"substeps", world.profile().substeps - substepsBefore}});
+    // Tearable cloths: the vertices split so far, so that a frame's time can be set beside its
+    // tears.
+    if (world.tearReport().spareParticles > 0)
+      perFrame.back()["new_vertices"] = world.tearReport().newVertices;
     // Pressured cloths: volume (m³) and pressure (Pa, absolute) at the frame's end, in object
     // order.
     for (std::size_t i = 0; i < world.objectCount(); ++i)
