@@ -396,7 +396,9 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
                                     {"broad_phase", profile.broadPhase * perStep},
                                     {"narrow_phase", profile.narrowPhase * perStep},
                                     {"collisions", profile.collisions * perStep},
-                                    {"update", profile.update * perStep}};
+                                    {"update", profile.update * perStep},
+                                    {"tear", profile.tear * perStep},
+                                    {"derived_tables", profile.derivedTables * perStep}};
     const CollisionReport& c = world.collisionReport();
     stats["collisions"] = {
         {"broad_phases", c.broadPhases},

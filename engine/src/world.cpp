@@ -1,6 +1,7 @@
 #include "nucleon/world.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <iomanip>
 #include <limits>
@@ -700,6 +701,7 @@ void World::step(double dt) {
   Impl& impl = *impl_;
   WorldState& s = impl.state;
   if (s.topologyDirty) {  // derived tables, rebuilt outside the step so a step never allocates
+    const auto tablesStart = std::chrono::steady_clock::now();
     buildDerivedTables(s.constraints, s.particles, fineSweepKind(s.solver));
     buildCollisionPrimitives(s.primitives, s.objects, s.excludedObjectPairs, s.excludedVertexSets,
                              s.particles.size());
@@ -717,6 +719,8 @@ void World::step(double dt) {
     s.kinematicContactDistance = smallestKinematicContact(s.primitives, s.objects, s.kinematics);
     s.objectEdgeLength = medianEdgeLengths(s.objects, s.particles);
     s.topologyDirty = false;
+    s.profile.derivedTables +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - tablesStart).count();
   }
   if (!impl.arena) {
     const int concurrency = impl.threads > 0 ? impl.threads : int{tbb::task_arena::automatic};
@@ -747,11 +751,14 @@ void World::step(double dt) {
   holdImpactSubsteps(s);
   // Tearing, between steps (systems/topology/tear_cloth.h). The broad phase's carried pairs name
   // the old primitives: a torn world searches again.
+  const auto tearStart = std::chrono::steady_clock::now();
   if (tearCloths(s.objects, s.particles, s.constraints, dt, s.tearReport)) {
     s.topologyDirty = true;
     s.candidates.pathStart.clear();
   }
   openTornLips(s.objects, s.particles, s.primitives);
+  s.profile.tear +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - tearStart).count();
   s.collisionReport.broadPhaseTreeErrors = s.bvh.embreeErrors();
   ++impl.state.profile.steps;
 }

@@ -23,6 +23,10 @@ struct StepProfile {
   double broadPhase = 0;
   double narrowPhase = 0;
   double update = 0;
+  // Between substeps: tearing (Material::tear) after a step, and the rebuild of the derived
+  // tables (colouring, incidence, levels, primitives, plan) a changed topology asks for.
+  double tear = 0;
+  double derivedTables = 0;
   std::uint64_t steps = 0;
   std::uint64_t substeps = 0;
   std::uint64_t projections = 0;
