@@ -7,6 +7,7 @@
 #include <span>
 #include <unordered_map>
 
+#include "systems/diagnostics/triangle_intersections.h"
 #include "systems/setup/build_constraints.h"
 
 namespace nucleon {
@@ -52,6 +53,9 @@ struct Split {
   std::vector<Index> keep, move;  // triangles that keep the vertex, and those its copy takes
   double keepArea = 0, moveArea = 0;
   bool byPlane = true;  // false: the fallback at the widest gap
+  // Where the vertex and its copy go, and their masses.
+  Vec3d keepAt = Vec3d::Zero(), copyAt = Vec3d::Zero();
+  double keepMass = 0, copyMass = 0;
 };
 
 // The split of vertex v by the plane through it perpendicular to its edge to u (positions now):
@@ -99,6 +103,48 @@ Split splitOf(const std::vector<std::array<Index, 3>>& triangles, const std::vec
     }
   }
   return s;
+}
+
+// The masses and places of a split vertex and its copy. Mass by the lumped shares of each copy's
+// triangles, so that the sum stays the original's (and, with the original's velocity, so does the
+// momentum); apart along the edge by kOpeningShare of its rest length, weighted so that the centre
+// of mass stays.
+void place(Split& s, Index v, Index u, const ParticlePool& particles, Index first) {
+  const Index g = first + v;
+  const double mass = 1.0 / double(particles.w[g]);
+  s.keepMass = mass * s.keepArea / (s.keepArea + s.moveArea);
+  s.copyMass = mass - s.keepMass;
+  const Vec3d direction = (at(particles.x, first + u) - at(particles.x, g)).normalized();
+  const double opening =
+      kOpeningShare *
+      (at(particles.restPosition, g) - at(particles.restPosition, first + u)).norm();
+  const Vec3d start = at(particles.x, g);
+  s.keepAt = start + direction * (opening * s.copyMass / mass);
+  s.copyAt = start - direction * (opening * s.keepMass / mass);
+}
+
+// Whether a triangle that keeps v and one that takes its copy, once they share no vertex, would
+// intersect: neighbours folded onto each other about v are legal while they share it, but after
+// the split the crossing fail-safe would find them crossing at the start of every substep and
+// stop them there for good (the exact intersection count would count them too). Such a split
+// waits until the fold has opened.
+bool splitTangles(const std::vector<std::array<Index, 3>>& triangles, const Split& s, Index v,
+                  const std::vector<Vec3>& x, Index first) {
+  const auto corners = [&](Index t, const Vec3d& vAt) {
+    Triangle3d out;
+    for (int k = 0; k < 3; ++k)
+      out[k] = triangles[t][k] == v ? vAt : at(x, first + triangles[t][k]);
+    return out;
+  };
+  for (Index a : s.keep)
+    for (Index b : s.move) {
+      bool adjacent = false;
+      for (Index i : triangles[a])
+        if (i != v && std::find(triangles[b].begin(), triangles[b].end(), i) != triangles[b].end())
+          adjacent = true;
+      if (!adjacent && trianglesIntersect(corners(a, s.keepAt), corners(b, s.copyAt))) return true;
+    }
+  return false;
 }
 
 // Edges at v that a triangle of each group borders: the edges the split cuts.
@@ -191,16 +237,18 @@ std::size_t tearObject(ObjectRecord& record, std::uint32_t object, ParticlePool&
     // fallback splits); of two, the one on the boundary (a crack's tip lies on its lips, and a
     // crack starts at the cloth's border rather than as a slit inside), then the one with more
     // over-stretched edges.
-    Index chosen = n, other = n;
+    Index chosen = n;
     Split split;
     int bestRank = -1;
     for (const auto& [v, u] : {std::pair{a, b}, std::pair{b, a}}) {
       if (particles.w[first + v] <= 0) continue;  // pins and animated pins never split
       Split s = splitOf(triangles, fans[v], v, u, particles.x, particles.restPosition, first);
       if (s.keep.empty() || s.move.empty() || !(s.keepArea > 0) || !(s.moveArea > 0)) continue;
+      place(s, v, u, particles, first);
+      if (splitTangles(triangles, s, v, particles.x, first)) continue;
       const int rank = (s.byPlane ? 1 << 21 : 0) +
                        (onBoundary(triangles, fans[v], v) ? 1 << 20 : 0) + overStretched[v];
-      if (rank > bestRank) bestRank = rank, chosen = v, other = u, split = std::move(s);
+      if (rank > bestRank) bestRank = rank, chosen = v, split = std::move(s);
     }
     if (chosen == n) continue;
     if (state.spareParticles == 0) {
@@ -211,25 +259,14 @@ std::size_t tearObject(ObjectRecord& record, std::uint32_t object, ParticlePool&
     const Index g = first + chosen, gc = first + copy;
     report.tornEdges += cutEdges(triangles, split, chosen);
     ++report.newVertices;
-    // Mass by the lumped shares of each copy's triangles: the sum stays the original's, and with
-    // the original's velocity so does the momentum.
-    const double mass = 1.0 / double(particles.w[g]);
-    const double keepMass = mass * split.keepArea / (split.keepArea + split.moveArea);
-    const double moveMass = mass - keepMass;
-    const Vec3d direction = (at(particles.x, first + other) - at(particles.x, g)).normalized();
-    const double opening =
-        kOpeningShare *
-        (at(particles.restPosition, g) - at(particles.restPosition, first + other)).norm();
-    // Apart along the edge, weighted so that the centre of mass stays.
-    const Vec3d start = at(particles.x, g);
-    particles.x[gc] = (start - direction * (opening * keepMass / mass)).cast<Real>();
-    particles.x[g] = (start + direction * (opening * moveMass / mass)).cast<Real>();
+    particles.x[gc] = split.copyAt.cast<Real>();
+    particles.x[g] = split.keepAt.cast<Real>();
     particles.p[g] = particles.x[g];
     particles.p[gc] = particles.x[gc];
     particles.v[gc] = particles.v[g];
     particles.restPosition[gc] = particles.restPosition[g];
-    particles.w[g] = static_cast<Real>(1.0 / keepMass);
-    particles.w[gc] = static_cast<Real>(1.0 / moveMass);
+    particles.w[g] = static_cast<Real>(1.0 / split.keepMass);
+    particles.w[gc] = static_cast<Real>(1.0 / split.copyMass);
     particles.phase[gc] = object;
     for (Index t : split.move)
       for (Index& v : triangles[t])
