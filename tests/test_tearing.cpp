@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <numeric>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -140,6 +141,62 @@ TEST(Tearing, SplitKeepsMassMomentumAndCentreOfMass) {
   EXPECT_NEAR(stepped.mass, after.mass, 1e-9 * after.mass);
   EXPECT_LT((stepped.momentum - after.momentum).norm(), 1e-4 * after.mass);
   EXPECT_EQ(world.measure().nanCount, 0u);
+}
+
+// Tethers are geodesic from the pins: a piece torn off loses them and falls, the rest keeps
+// those whose path stays on it.
+TEST(Tearing, TethersFollowTheTornMesh) {
+  GridSpec spec;
+  spec.resolution = {7, 7};
+  spec.size = {Real(0.6), Real(0.6)};
+  spec.vertical = true;
+  ObjectDef cloth = gridCloth(spec);
+  cloth.pins = {0, 1, 2, 3, 4, 5, 6};  // the top row
+  cloth.material.tear.strain = Real(0.5);
+  World world;
+  world.setSolver(test::solverSettings(SolverKind::GaussSeidel, 10, 1));
+  world.addCloth(cloth);
+  world.step(1.0 / 60);
+  const std::size_t tethersBefore = world.constraintCount(ConstraintFamily::Tether);
+  ASSERT_EQ(tethersBefore, 42u);  // every free vertex to the one cluster
+  // The lower half pulled 0.3 m down: the rows between stand at several times their length.
+  WorldState& s = world.impl().state;
+  const Real middle = Real(1);
+  for (Index i = 0; i < 49; ++i) {
+    if (s.particles.restPosition[i].y() < middle - Real(0.05)) s.particles.x[i].y() -= Real(0.3);
+    s.particles.v[i].setZero();
+    s.particles.p[i] = s.particles.x[i];
+  }
+  TearReport report;
+  ASSERT_TRUE(tearNow(s, report));
+  const ObjectRecord& o = s.objects[0];
+  // The pieces of the torn cloth, by the triangles' shared vertices.
+  std::vector<Index> piece(o.particleCount);
+  std::iota(piece.begin(), piece.end(), Index(0));
+  const auto find = [&](Index v) {
+    while (piece[v] != v) v = piece[v] = piece[piece[v]];
+    return v;
+  };
+  for (const auto& t : o.complex.triangles.vertices)
+    for (int k = 1; k < 3; ++k) piece[find(t[k])] = find(t[0]);
+  std::set<Index> pieces;
+  for (Index v = 0; v < o.particleCount; ++v) pieces.insert(find(v));
+  ASSERT_EQ(pieces.size(), 2u);
+  const TetherConstraints& tethers = s.constraints.tether;
+  for (std::size_t c = 0; c < tethers.size(); ++c)
+    EXPECT_EQ(find(tethers.particles[c][0]), find(tethers.particles[c][1]));
+  EXPECT_LT(tethers.size(), tethersBefore);
+  EXPECT_GT(tethers.size(), 0u);
+  // The piece without pins falls freely: after 10 steps at 1/60 s, g t²/2 = 0.136 m lower.
+  const Index loose = find(48);  // the bottom corner
+  ASSERT_NE(loose, find(0));
+  std::vector<Real> startY(o.particleCount);
+  for (Index v = 0; v < o.particleCount; ++v) startY[v] = s.particles.x[v].y();
+  test::simulate(world, 10);
+  for (Index v = 0; v < o.particleCount; ++v)
+    if (find(v) == loose) {
+      EXPECT_LT(s.particles.x[v].y(), startY[v] - Real(0.12)) << v;
+    }
 }
 
 TEST(Tearing, TearsAboveTheThresholdAndNotBelow) {
