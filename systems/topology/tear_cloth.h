@@ -21,13 +21,14 @@ Index tearSpareParticles(const Tear& tear, std::size_t vertexCount);
 
 // After a step of dt seconds: advances every tearable cloth's clock of each over-stretched edge
 // and splits the cloth at the edges whose clock reached Tear::time, strongest strain first (then
-// edge order: the same splits at any thread count). A vertex split at most once per call, and the
-// edges of a vertex already split in this call wait for the next. Each split moves the vertex's
-// triangles on the far side of the plane through it perpendicular to the edge onto a new copy,
-// shares its mass by the triangles' rest areas and keeps the velocity, then rebuilds the object's
-// complex, surface and constraints in `pools` (tethers included, from the new complex). Returns
-// whether any cloth changed: the derived tables (colouring, incidence, levels, collision
-// primitives, sweep plan) must then be rebuilt, and the broad phase's carried pairs dropped.
+// edge order: the same splits at any thread count). A vertex splits at most once per call, and the
+// edges of a vertex already split in this call wait for the next. Each split gives the vertex's
+// triangles on the far side (from the edge's other end) of the plane through it perpendicular to
+// the edge to a new copy, shares its mass by the triangles' rest areas and keeps the velocity;
+// the object's complex, surface and constraints in `pools` (tethers included, from the new
+// complex) are then rebuilt. Returns whether any cloth changed: the derived tables (colouring,
+// incidence, levels, collision primitives, sweep plan) must then be rebuilt, and the broad
+// phase's carried pairs dropped.
 bool tearCloths(std::vector<ObjectRecord>& objects, ParticlePool& particles, ConstraintPools& pools,
                 double dt, TearReport& report);
 
