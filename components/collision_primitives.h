@@ -92,6 +92,21 @@ struct CollisionPrimitives {
   // mask of the sets it never meets. A primitive is in a set when all of its particles are.
   std::vector<std::uint32_t> particleSets;
   std::array<std::uint32_t, 32> setExclusions{};
+
+  // Torn cloth (TearState): per particle, the particle of the untorn cloth it descends from, for
+  // the vertices of a cut whose lips have opened; kNoOrigin for every other (empty when no lip
+  // has opened). Two primitives holding different particles of one origin lie across a cut:
+  // coincident in the rest shape, yet free to collide.
+  static constexpr Index kNoOrigin = ~Index{0};
+  std::vector<Index> particleOrigin;
+  bool acrossCut(std::span<const Index> a, std::span<const Index> b) const {
+    if (particleOrigin.empty()) return false;
+    for (Index i : a)
+      for (Index j : b)
+        if (i != j && particleOrigin[i] != kNoOrigin && particleOrigin[i] == particleOrigin[j])
+          return true;
+    return false;
+  }
   bool setsExcluded(std::span<const Index> a, std::span<const Index> b) const {
     std::uint32_t maskA = ~0u, maskB = ~0u;
     for (Index i : a) maskA &= particleSets[i];
@@ -106,6 +121,7 @@ struct CollisionPrimitives {
     pointTriangle.clear(), edgeTriangle.clear(), triangleOwnership.clear(), objectFlags.clear();
     triangleParticles.clear(), triangleRadius.clear(), triangleObject.clear();
     objectSurface.clear(), excludedPairs.clear(), particleSets.clear();
+    particleOrigin.clear();
     setExclusions.fill(0);
     smallestRadius = 0;
   }

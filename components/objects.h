@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "components/simplicial_complex.h"
+#include "components/tear_state.h"
 #include "nucleon/object_def.h"
 
 namespace nucleon {
@@ -23,6 +24,7 @@ struct ObjectRecord {
   bool closed = false;                        // the surface bounds a volume
   double restVolume = 0;                      // enclosed volume in the rest shape
   Schedule schedule;                          // empty: the world's
+  TearState tear;                             // tearable cloth only (Material::tear)
 };
 
 }  // namespace nucleon

@@ -62,9 +62,9 @@ TEST_P(EveryBundledScene, RunsWithoutRepairsOrNonFiniteValues) {
   // No free particle ends any frame behind the ground's or a sphere's surface.
   EXPECT_EQ(j.at("failures").at("frames_inside_colliders").get<long long>(), 0);
   const std::vector<std::string> collisionScenes = {
-      "attachments",     "balloon",        "bullet_cloth", "cloth_drop_sphere",
-      "cloth_free_fall", "cloth_self",     "cloth_twist",  "kinematic_spin",
-      "net_ball",        "rigid_on_cloth", "rope_pile"};
+      "attachments",     "balloon",    "bullet_cloth", "bullet_cloth_tear", "cloth_drop_sphere",
+      "cloth_free_fall", "cloth_self", "cloth_twist",  "kinematic_spin",    "net_ball",
+      "rigid_on_cloth",  "rope_pile",  "tear"};
   if (std::find(collisionScenes.begin(), collisionScenes.end(), GetParam()) !=
       collisionScenes.end()) {
     for (const nlohmann::json& frame : j.at("per_frame"))

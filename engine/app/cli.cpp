@@ -228,6 +228,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
   const double dt = 1.0 / scene.fps;
   nlohmann::json perFrame = nlohmann::json::array(), energy = nlohmann::json::array();
   double stepSeconds = 0;
+  std::vector<double> frameMs;  // each frame's step, for the percentiles
   // What keeps a run from being clean, frame by frame (every frame counts, not only the last).
   FailureTally failures;
   Progress progress(err, scene.frames, o.quiet);
@@ -238,6 +239,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
     world.step(dt);
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     stepSeconds += seconds;
+    frameMs.push_back(seconds * 1e3);
     const Measures m = world.measure();
     energy.push_back(m.kineticEnergy + m.potentialEnergy);
     failures.add(m);
@@ -248,6 +250,10 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
                         {"inside_colliders", m.insideColliders},
                         {"contacts", m.contacts},
                         {"substeps", world.profile().substeps - substepsBefore}});
+    // Tearable cloths: the vertices split so far, so that a frame's time can be set beside its
+    // tears.
+    if (world.tearReport().spareParticles > 0)
+      perFrame.back()["new_vertices"] = world.tearReport().newVertices;
     // Pressured cloths: volume (m³) and pressure (Pa, absolute) at the frame's end, in object
     // order.
     for (std::size_t i = 0; i < world.objectCount(); ++i)
@@ -385,6 +391,22 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
                                {"worst_frame_max_compression", worst},
                                {"dropped_neighbours", l.droppedNeighbours}});
   }
+  // The frames' step times by nearest rank: a tear's rebuild shows in the tail, not the mean.
+  if (!frameMs.empty()) {
+    std::sort(frameMs.begin(), frameMs.end());
+    const auto rank = [&](double q) {
+      const auto r = static_cast<std::size_t>(std::ceil(q * double(frameMs.size()) - 1e-9));
+      return frameMs[std::min(frameMs.size(), std::max<std::size_t>(r, 1)) - 1];
+    };
+    stats["frame_ms"] = {{"p50", rank(0.5)}, {"p99", rank(0.99)}, {"max", frameMs.back()}};
+  }
+  // Tearable cloths: edges cut, vertices split and tears refused for want of spare particles.
+  if (const TearReport& tear = world.tearReport(); tear.spareParticles > 0)
+    stats["tearing"] = {{"torn_edges", tear.tornEdges},
+                        {"new_vertices", tear.newVertices},
+                        {"refused_tears", tear.refusedTears},
+                        {"tear_steps", tear.tearSteps},
+                        {"spare_particles", tear.spareParticles}};
   // Multigrid's fine-sweep backend (scene key solver.smoother).
   if (scene.solver.kind == SolverKind::Multigrid)
     stats["smoother"] = toString(scene.solver.smoother);
@@ -400,7 +422,9 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
                                     {"broad_phase", profile.broadPhase * perStep},
                                     {"narrow_phase", profile.narrowPhase * perStep},
                                     {"collisions", profile.collisions * perStep},
-                                    {"update", profile.update * perStep}};
+                                    {"update", profile.update * perStep},
+                                    {"tear", profile.tear * perStep},
+                                    {"derived_tables", profile.derivedTables * perStep}};
     const CollisionReport& c = world.collisionReport();
     stats["collisions"] = {
         {"broad_phases", c.broadPhases},

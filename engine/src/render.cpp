@@ -64,11 +64,13 @@ void renderPng(const World& world, const std::string& path, const RenderSettings
 
   // Bounds of everything, for framing and for the ground plane.
   Vec3f lo = Vec3f::Constant(1e30f), hi = Vec3f::Constant(-1e30f);
-  for (const Vec3& x : world.positions())
-    if (x.allFinite()) {
-      lo = lo.cwiseMin(x.cast<float>());
-      hi = hi.cwiseMax(x.cast<float>());
-    }
+  // Object by object: a tearable cloth's unused spare particles are not drawn.
+  for (std::size_t o = 0; o < world.objectCount(); ++o)
+    for (const Vec3& x : world.positions(world.objectAt(o)))
+      if (x.allFinite()) {
+        lo = lo.cwiseMin(x.cast<float>());
+        hi = hi.cwiseMax(x.cast<float>());
+      }
   if (lo.x() > hi.x()) lo = hi = Vec3f::Zero();
   const float extent = std::max((hi - lo).norm(), 1e-3f);
 

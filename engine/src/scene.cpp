@@ -475,10 +475,26 @@ SceneObject readObject(const Reader& o, const std::string& folder,
   }
   if (o.has("material")) {
     const Reader m = o.child("material");
-    m.allowOnly({"mass", "stretch_compliance", "compression_compliance", "bend_compliance",
-                 "shear_compliance", "twist_compliance", "volume_compliance", "damping",
-                 "thickness", "tethers", "collide", "self_collision", "friction", "static_friction",
-                 "restitution", "stickiness", "pressure", "rigidity", "liquid"});
+    m.allowOnly({"mass",
+                 "stretch_compliance",
+                 "compression_compliance",
+                 "bend_compliance",
+                 "shear_compliance",
+                 "twist_compliance",
+                 "volume_compliance",
+                 "damping",
+                 "thickness",
+                 "tethers",
+                 "collide",
+                 "self_collision",
+                 "friction",
+                 "static_friction",
+                 "restitution",
+                 "stickiness",
+                 "pressure",
+                 "rigidity",
+                 "liquid",
+                 "tear"});
     Material& mat = out.def.material;
     mat.mass = static_cast<Real>(m.number("mass", mat.mass, 1e-9, 1e9));
     mat.stretchCompliance =
@@ -560,6 +576,19 @@ SceneObject readObject(const Reader& o, const std::string& folder,
       liquid.surfaceTension =
           static_cast<Real>(q.number("surface_tension", liquid.surfaceTension, 0, 1));
       liquid.adhesion = static_cast<Real>(q.number("adhesion", liquid.adhesion, 0, 1e3));
+    }
+    if (m.has("tear")) {
+      if (out.kind != ObjectKind::Cloth) m.fail(m.at("tear"), "only a cloth can tear");
+      if (m.has("pressure"))
+        m.fail(m.at("tear"), "a tearable cloth can have no pressure (a torn surface holds no gas)");
+      if (mat.rigidity > 0) m.fail(m.at("tear"), "a tearable cloth can have no rigidity");
+      const Reader t = m.child("tear");
+      t.allowOnly({"strain", "time", "max_new_vertices"});
+      if (!t.has("strain")) t.fail("missing 'strain'");
+      Tear& tear = mat.tear;
+      tear.strain = static_cast<Real>(t.number("strain", 0, 1e-6, 1e3));
+      tear.time = static_cast<Real>(t.number("time", 0, 0, 1e3));
+      tear.maxNewVertices = t.integer("max_new_vertices", -1, 0, 10000000);
     }
     if (m.has("collide")) {
       // Which primitives collide: a list of "vertices", "edges", "faces" (empty: none).

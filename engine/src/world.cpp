@@ -1,6 +1,7 @@
 #include "nucleon/world.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <iomanip>
 #include <limits>
@@ -27,6 +28,7 @@
 #include "systems/solver/attachments.h"
 #include "systems/solver/pressure.h"
 #include "systems/solver/shape_matching.h"
+#include "systems/topology/tear_cloth.h"
 
 namespace nucleon {
 
@@ -319,6 +321,19 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
           what + ": only a cloth can have pressure");
   require(def.material.rigidity == 0 || kind != ObjectKind::Collider,
           what + ": a collider is moved by its motion, not by rigidity");
+  const Tear& tear = def.material.tear;
+  require(std::isfinite(tear.strain) && tear.strain >= 0 && tear.strain <= 1000,
+          what + ": tear strain must be in [0, 1000] (0: no tearing)");
+  require(std::isfinite(tear.time) && tear.time >= 0 && tear.time <= 1000,
+          what + ": tear time must be in [0, 1000] s");
+  require(tear.maxNewVertices >= -1 && tear.maxNewVertices <= 10000000,
+          what + ": tear max_new_vertices must be in [0, 1e7] (−1: derived)");
+  if (tear.enabled()) {
+    require(kind == ObjectKind::Cloth, what + ": only a cloth can tear");
+    require(def.material.pressure.mode == PressureMode::Off,
+            what + ": a tearable cloth can have no pressure (a torn surface holds no gas)");
+    require(def.material.rigidity == 0, what + ": a tearable cloth can have no rigidity");
+  }
   validateMotion(def, kind, what);
   validatePinGroups(def, kind, what);
   const std::size_t n = def.vertices.size();
@@ -399,7 +414,16 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
 
   // Everything validated: from here on the world changes.
   ParticlePool& particles = s.particles;
-  const Index first = particles.append(n);
+  // A tearable cloth's spare particles follow its own, inert (inverse mass 0, in no constraint
+  // or primitive) until a split takes one: the object's range stays contiguous.
+  const Index spare = tearSpareParticles(def.material.tear, n);
+  const Index first = particles.append(n + spare);
+  for (Index i = 0; i < spare; ++i) {
+    particles.x[first + n + i] = particles.restPosition[first + n + i] = def.vertices[0];
+    particles.phase[first + n + i] = static_cast<std::uint32_t>(s.objects.size());
+  }
+  record.tear.spareParticles = spare;
+  s.tearReport.spareParticles += spare;
   const bool kinematic = kind == ObjectKind::Collider;
   for (std::size_t i = 0; i < n; ++i) {
     particles.x[first + i] = def.vertices[i];
@@ -715,6 +739,7 @@ void World::step(double dt) {
   Impl& impl = *impl_;
   WorldState& s = impl.state;
   if (s.topologyDirty) {  // derived tables, rebuilt outside the step so a step never allocates
+    const auto tablesStart = std::chrono::steady_clock::now();
     buildDerivedTables(s.constraints, s.particles, fineSweepKind(s.solver));
     buildCollisionPrimitives(s.primitives, s.objects, s.excludedObjectPairs, s.excludedVertexSets,
                              s.particles.size());
@@ -736,6 +761,8 @@ void World::step(double dt) {
     s.kinematicContactDistance = smallestKinematicContact(s.primitives, s.objects, s.kinematics);
     s.objectEdgeLength = medianEdgeLengths(s.objects, s.particles);
     s.topologyDirty = false;
+    s.profile.derivedTables +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - tablesStart).count();
   }
   if (!impl.arena) {
     const int concurrency = impl.threads > 0 ? impl.threads : int{tbb::task_arena::automatic};
@@ -764,6 +791,16 @@ void World::step(double dt) {
     }
   });
   holdImpactSubsteps(s);
+  // Tearing, between steps (systems/topology/tear_cloth.h). The broad phase's carried pairs name
+  // the old primitives: a torn world searches again.
+  const auto tearStart = std::chrono::steady_clock::now();
+  if (tearCloths(s.objects, s.particles, s.constraints, dt, s.tearReport)) {
+    s.topologyDirty = true;
+    s.candidates.pathStart.clear();
+  }
+  openTornLips(s.objects, s.particles, s.primitives);
+  s.profile.tear +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - tearStart).count();
   s.collisionReport.broadPhaseTreeErrors = s.bvh.embreeErrors();
   ++impl.state.profile.steps;
 }
@@ -993,7 +1030,10 @@ Measures World::measure() const {
   const Vec3d up =
       s.gravity.norm() > 0 ? Vec3d(-s.gravity.cast<double>().normalized()) : Vec3d(0, 1, 0);
   m.minHeight = s.particles.size() ? std::numeric_limits<double>::infinity() : 0.0;
-  for (const Vec3& x : s.particles.x) m.minHeight = std::min(m.minHeight, up.dot(x.cast<double>()));
+  // Over the objects' ranges: a tearable cloth's unused spare particles are not part of it.
+  for (const ObjectRecord& o : s.objects)
+    for (Index i = o.firstParticle; i < o.firstParticle + o.particleCount; ++i)
+      m.minHeight = std::min(m.minHeight, up.dot(s.particles.x[i].cast<double>()));
   double rest = 0, now = 0;
   for (const ObjectRecord& o : s.objects)
     if (o.closed && o.kind != ObjectKind::Collider) {
@@ -1180,6 +1220,9 @@ const Recoveries& World::recoveries() const {
   return impl_->state.recoveries;
 }
 
+const TearReport& World::tearReport() const {
+  return impl_->state.tearReport;
+}
 const CollisionReport& World::collisionReport() const {
   return impl_->state.collisionReport;
 }

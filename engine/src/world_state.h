@@ -81,6 +81,7 @@ struct WorldState {
   ImpactHold impactHold;
   bool topologyDirty = true;    // incidence, coloring and plan need rebuilding
   Recoveries recoveries;        // repairs since creation
+  TearReport tearReport;        // tears since creation (systems/topology/tear_cloth.h)
   std::uint64_t stepCount = 0;  // steps taken since creation
   // Simulated seconds since creation, advanced after every substep; animations are functions of
   // it. The substep being run, with its place in time, is the step graph's SubstepContext.

@@ -79,6 +79,19 @@ struct Liquid {
   Real adhesion = 0;
 };
 
+// Tearing of a cloth (Nucleus's nCloth tearable surface; ARCHITECTURE.md §2, "Tearing"): an edge
+// whose stretch strain L/L0 − 1 stays above `strain` for `time` seconds of consecutive steps splits
+// the cloth there: one of its vertices is duplicated and its triangles are shared between the two
+// copies. Off while `strain` is 0. Cloth only, without pressure or rigidity.
+struct Tear {
+  Real strain = 0;  // threshold, in (0, 1000]: 0.5 tears an edge held at 1.5 times its rest length
+  Real time = 0;    // seconds the strain must stay above the threshold, in [0, 1000]
+  // Spare particles reserved after the cloth's own, one per split vertex; when they run out,
+  // further tears are refused and counted. −1: a quarter of the cloth's vertices, at least 64.
+  int maxNewVertices = -1;
+  bool enabled() const { return strain > 0; }
+};
+
 struct Material {
   // Mass of the whole object in kg, spread over its particles in proportion to the length, area
   // or volume around each (lumped mass). Must be positive and finite.
@@ -151,6 +164,8 @@ struct Material {
   Real rigidity = 0;
   // Particle clouds only: the cloud is a liquid (off by default).
   Liquid liquid;
+  // Cloth only: tearing (off by default).
+  Tear tear;
 };
 
 }  // namespace nucleon

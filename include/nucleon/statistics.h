@@ -24,6 +24,10 @@ struct StepProfile {
   double broadPhase = 0;
   double narrowPhase = 0;
   double update = 0;
+  // Between substeps: tearing (Material::tear) after a step, and the rebuild of the derived
+  // tables (colouring, incidence, levels, primitives, plan) a changed topology asks for.
+  double tear = 0;
+  double derivedTables = 0;
   std::uint64_t steps = 0;
   std::uint64_t substeps = 0;
   std::uint64_t projections = 0;
@@ -111,6 +115,16 @@ struct CollisionReport {
   std::uint64_t mostSubsteps = 0;
   std::uint64_t cappedSubstepSteps = 0;
   std::uint64_t firstCrossingStep = 0;  // 1-based step of the first fail-safe action; 0 if none
+};
+
+// What tearing (Material::tear) did since the world was created.
+struct TearReport {
+  std::uint64_t tornEdges = 0;    // edges cut in two (each now borders one triangle per side)
+  std::uint64_t newVertices = 0;  // vertex splits: spare particles taken into use
+  // Tears refused because the cloth's spare particles had run out (Tear::maxNewVertices).
+  std::uint64_t refusedTears = 0;
+  std::uint64_t tearSteps = 0;       // steps after which at least one vertex split
+  std::uint64_t spareParticles = 0;  // spare particles reserved by tearable cloths, used or not
 };
 
 // A pressured surface's state (World::pressure).

@@ -145,6 +145,9 @@ class World {
   // every other and with itself unless its material or excludeCollisions says otherwise): what
   // the collision stages did since the world was created.
   const CollisionReport& collisionReport() const;
+  // What tearing (Material::tear) did since the world was created: edges cut, vertices split,
+  // tears refused for want of spare particles.
+  const TearReport& tearReport() const;
   // The two objects (the same one twice: its self-collision) never collide with each other.
   void excludeCollisions(ObjectId a, ObjectId b);
   // The primitives of `a` whose vertices are all in `verticesA` never collide with those of `b`

@@ -269,9 +269,14 @@ bool makeContact(const PairView& v, const CollisionPrimitives& prims, const Part
     // shape); the fail-safe still checks them for crossings. (Dropping also the pairs within
     // reach, contact distance + margin, in the rest shape cut contacts on a single cloth layer
     // but let folded layers of cloth_self press through to the ground: measured worse.)
+    // A torn cloth's copies keep their original's rest position: pairs across an opened cut
+    // are not held apart by the mesh any more, so they collide (CollisionPrimitives::acrossCut).
     Vec3d R[4] = {Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero()};
     for (int k = 0; k < v.count; ++k) R[k] = particles.restPosition[v.id[k]].cast<double>();
-    if (boxDistance(v, R) < double(v.radius) &&
+    const std::span<const Index> ids(v.id, static_cast<std::size_t>(v.count));
+    if (!prims.acrossCut(ids.first(static_cast<std::size_t>(v.firstSide)),
+                         ids.subspan(static_cast<std::size_t>(v.firstSide))) &&
+        boxDistance(v, R) < double(v.radius) &&
         combine(closestCoefficients(v.kind, R), R, v.count).norm() < double(v.radius))
       return false;
   }

@@ -142,6 +142,15 @@ void buildCollisionPrimitives(CollisionPrimitives& out, const std::vector<Object
         out.triangleObject.push_back(o);
       }
   }
+  // The opened lips of torn cloths (TearState::opened), by the particle they descend from.
+  for (const ObjectRecord& record : objects) {
+    const TearState& tear = record.tear;
+    for (Index v = 0; v < tear.opened.size() && v < tear.origin.size(); ++v) {
+      if (!tear.opened[v] || record.firstParticle + v >= particleCount) continue;
+      if (out.particleOrigin.empty()) out.particleOrigin.assign(particleCount, out.kNoOrigin);
+      out.particleOrigin[record.firstParticle + v] = record.firstParticle + tear.origin[v];
+    }
+  }
   Real smallest = std::numeric_limits<Real>::infinity();
   for (const auto* radii : {&out.pointRadius, &out.edgeRadius, &out.triangleRadius})
     for (Real r : *radii) smallest = std::min(smallest, r);
