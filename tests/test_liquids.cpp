@@ -383,3 +383,18 @@ TEST(Liquids, BadLiquidSettingsAreRefused) {
   sheet.material.liquid.enabled = true;
   EXPECT_THROW(world.addCloth(sheet), std::invalid_argument);
 }
+
+// The neighbour search is rebuilt every substep into storage that keeps its capacity: once the
+// liquid's tables have their size, a step allocates nothing for it (the same buffers before and
+// after ten more steps of a sloshing block).
+TEST(Liquids, NeighbourSearchReusesItsStorage) {
+  World world = smallDamBreak(0);
+  test::simulate(world, 2);
+  const LiquidPool& pool = world.impl().state.constraints.liquid;
+  const void* before[] = {pool.neighbours.data(), pool.cellStart.data(), pool.slotParticle.data(),
+                          pool.position.data(), pool.gradientScale.data()};
+  test::simulate(world, 10);
+  const void* after[] = {pool.neighbours.data(), pool.cellStart.data(), pool.slotParticle.data(),
+                         pool.position.data(), pool.gradientScale.data()};
+  for (int k = 0; k < 5; ++k) EXPECT_EQ(before[k], after[k]) << k;
+}
