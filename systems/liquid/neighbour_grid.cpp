@@ -88,11 +88,16 @@ void buildNeighbourLists(LiquidPool& pool, std::span<const Vec3> x, std::span<co
       tbb::blocked_range<std::size_t>(0, n), std::uint64_t(0),
       [&](const auto& range, std::uint64_t dropped) {
         // The runs of slots of the 27 keys around the last cell seen: slots are sorted by key, so
-        // the particles of a cell mostly follow each other and share them.
+        // the particles of a cell mostly follow each other and share them. With each run, the
+        // cell's offset from the particle's cell per axis (−1, 0, 1), or a shared flag when two
+        // of the 27 cells have its key (then it is always scanned).
         std::array<std::array<Index, 2>, 27> runs;
+        std::array<std::array<std::int8_t, 3>, 27> offsets;
+        std::array<bool, 27> shared;
         int runCount = 0;
         Cell runsOf = {0, 0, 0};
         bool haveRuns = false;
+        const Real cellSize = pool.kernels.radius;
         for (std::size_t s = range.begin(); s < range.end(); ++s) {
           const Vec3 xs = position[s];
           const Cell c = cellOf(xs, invCell);
@@ -106,19 +111,41 @@ void buildNeighbourLists(LiquidPool& pool, std::span<const Vec3> x, std::span<co
                   const std::uint32_t key = keyOf({c[0] + dx, c[1] + dy, c[2] + dz}, mask);
                   // Two cells of the 27 may share a key: scan each key once.
                   const std::uint64_t bit = std::uint64_t(1) << (key & 63);
-                  if ((seen & bit) != 0 && std::find(keys.begin(), keys.begin() + runCount, key) !=
-                                               keys.begin() + runCount)
-                    continue;
+                  if ((seen & bit) != 0) {
+                    const auto at = std::find(keys.begin(), keys.begin() + runCount, key);
+                    if (at != keys.begin() + runCount) {
+                      shared[at - keys.begin()] = true;
+                      continue;
+                    }
+                  }
                   seen |= bit;
                   keys[runCount] = key;
+                  offsets[runCount] = {std::int8_t(dx), std::int8_t(dy), std::int8_t(dz)};
+                  shared[runCount] = false;
                   runs[runCount++] = {pool.cellStart[key], pool.cellStart[key + 1]};
                 }
             runsOf = c;
             haveRuns = true;
           }
+          // The particle's gaps to its cell's faces: a neighbouring cell whose box is a kernel
+          // radius away holds no neighbour (an edge cell is within reach for π/4 of the
+          // positions in the cell, a corner cell for π/6), so its run is not scanned.
+          Real below[3], above[3];
+          for (int a = 0; a < 3; ++a) {
+            below[a] = xs[a] - Real(c[a]) * cellSize;
+            above[a] = Real(c[a] + 1) * cellSize - xs[a];
+          }
           int count = 0;
           Index* out = pool.neighbours.data() + s * stride;
-          for (int r = 0; r < runCount; ++r)
+          for (int r = 0; r < runCount; ++r) {
+            if (!shared[r]) {
+              Real gap2 = 0;
+              for (int a = 0; a < 3; ++a) {
+                const Real gap = offsets[r][a] < 0 ? below[a] : offsets[r][a] > 0 ? above[a] : 0;
+                gap2 += gap * gap;
+              }
+              if (gap2 >= r2max) continue;
+            }
             for (Index t = runs[r][0]; t < runs[r][1]; ++t) {
               if ((position[t] - xs).squaredNorm() >= r2max || t == s) continue;
               if (count < stride)
@@ -126,6 +153,7 @@ void buildNeighbourLists(LiquidPool& pool, std::span<const Vec3> x, std::span<co
               else
                 ++dropped;
             }
+          }
           pool.neighbourCount[s] = static_cast<std::uint16_t>(count);
         }
         return dropped;
