@@ -80,11 +80,12 @@ struct LiquidPool {
   std::vector<Real> gradientScale;
   std::vector<Real> tensileTerm;
   // Per-slot scratch of the projections and the velocity pass.
-  std::vector<Real> density;    // ρ (kg/m³), from the last evaluation
-  std::vector<Real> lambda;     // λ of the last projection
-  std::vector<Vec3> delta;      // Δp, or the new velocity in the velocity pass
-  std::vector<Vec3> vorticity;  // ω
-  std::vector<Vec3> normal;     // Akinci's surface normal n = H Σ (m_j/ρ_j) ∇W
+  std::vector<Real> density;            // ρ (kg/m³), from the last evaluation
+  std::vector<Real> lambda;             // λ of the last projection
+  std::vector<Real> lambdaOverDensity;  // λ/ρ0 of the same, as the Δp pass reads it
+  std::vector<Vec3> delta;              // Δp, or the new velocity in the velocity pass
+  std::vector<Vec3> vorticity;          // ω
+  std::vector<Vec3> normal;             // Akinci's surface normal n = H Σ (m_j/ρ_j) ∇W
   // Per liquid particle (list order): the sum of its multipliers over the substep's projections,
   // Λ. Its pressure is −ρ0 Λ / (m h²): the SPH pressure force's move h² Σ −m (p_i + p_j)/ρ0² ∇W
   // is the projections' Σ (λ_i + λ_j)/ρ0 ∇W at equal masses (w = 1/m).

@@ -90,6 +90,7 @@ void appendLiquidObject(LiquidPool& pool, std::uint32_t objectIndex, Index first
   pool.density.resize(n);
   pool.lambdaTotal.resize(n);
   pool.lambda.resize(n);
+  pool.lambdaOverDensity.resize(n);
   pool.delta.resize(n);
   pool.vorticity.resize(n);
   pool.normal.resize(n);
@@ -137,12 +138,13 @@ void projectDensity(LiquidPool& pool, ParticlePool& particles, Real maxMove,
     pool.density[s] = rho;
     const Real C = rho * o.invRestDensity - 1;
     if (C <= 0 || !runs(s)) {
-      pool.lambda[s] = 0;
+      pool.lambda[s] = pool.lambdaOverDensity[s] = 0;
       return;
     }
     const Real gradients =
         o.invRestDensity * o.invRestDensity * (pool.inverseMass[s] * own.squaredNorm() + others);
     pool.lambda[s] = -C / (gradients + o.epsilon);
+    pool.lambdaOverDensity[s] = pool.lambda[s] * o.invRestDensity;
     pool.lambdaTotal[pool.slotParticle[s]] += pool.lambda[s];
   });
   // Δp of every slot from every λ.
@@ -161,9 +163,8 @@ void projectDensity(LiquidPool& pool, ParticlePool& particles, Real maxMove,
       const Index t = list[c];
       const Vec3 d =
           pairOffset(k, ps - pool.position[t], pool.slotParticle[s], pool.slotParticle[t]);
-      const Real scale =
-          (ls + pool.tensileTerm[s * stride + c]) * pool.mass[t] * o.invRestDensity +
-          pool.lambda[t] * pool.mass[s] * pool.objects[pool.slotObject[t]].invRestDensity;
+      const Real scale = (ls + pool.tensileTerm[s * stride + c]) * pool.mass[t] * o.invRestDensity +
+                         pool.lambdaOverDensity[t] * pool.mass[s];
       delta += (scale * pool.gradientScale[s * stride + c]) * d;
     }
     delta *= ws;
