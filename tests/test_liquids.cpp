@@ -398,3 +398,48 @@ TEST(Liquids, NeighbourSearchReusesItsStorage) {
                          pool.position.data(), pool.gradientScale.data()};
   for (int k = 0; k < 5; ++k) EXPECT_EQ(before[k], after[k]) << k;
 }
+
+namespace {
+
+// A cube of 8³ water particles in zero gravity spun about the vertical at 4 rad/s, with vorticity
+// confinement ε and no viscosity or surface tension: its angular momentum about its centre of
+// mass after half a second over the initial one.
+double spinKeptAfterHalfASecond(Real epsilon) {
+  World world;
+  world.setGravity(Vec3::Zero());
+  world.setSolver(liquidSolver(3, 2));
+  ObjectDef cube = waterBlock({8, 8, 8}, Vec3(0, 1, 0), 0);
+  cube.material.liquid.vorticity = epsilon;
+  const ObjectId water = world.addParticles(cube);
+  WorldState& s = world.impl().state;
+  for (std::size_t i = 0; i < s.particles.size(); ++i)
+    s.particles.v[i] = Vec3(0, 4, 0).cross(s.particles.x[i] - Vec3(0, 1, 0));
+  auto angularMomentum = [&] {
+    const auto x = world.positions(water);
+    const auto v = world.velocities();
+    Vec3d centre = Vec3d::Zero();
+    for (const Vec3& p : x) centre += p.cast<double>() / double(x.size());
+    double L = 0;
+    for (std::size_t i = 0; i < x.size(); ++i)
+      L += (x[i].cast<double>() - centre).cross(v[i].cast<double>()).y();
+    return L;
+  };
+  const double start = angularMomentum();
+  test::simulate(world, 30);
+  return angularMomentum() / start;
+}
+
+}  // namespace
+
+// Without viscosity and surface tension, the particles push each other along the lines between
+// them (∇W is along x_i − x_j), which keeps angular momentum: the spinning cube flies apart with
+// its spin. Vorticity confinement adds swirl where the flow has it (PBF §5, Fedkiw et al. 2001):
+// more angular momentum with it. Measured: 1.002 of the initial without (tolerance 1%), 2.0 with
+// ε = 0.5 m/s.
+TEST(Liquids, VorticityConfinementAddsSpinToASpinningBlock) {
+  if (kSanitized) GTEST_SKIP() << "half a second of two blocks; the Release build runs it";
+  const double without = spinKeptAfterHalfASecond(0);
+  const double with = spinKeptAfterHalfASecond(Real(0.5));
+  EXPECT_NEAR(without, 1.0, 0.01);
+  EXPECT_GT(with, without + 0.02);
+}
