@@ -141,11 +141,11 @@ TEST_P(SceneDeterminism, SameStateForOneAndTwoThreads) {
     liquid |= o.def.material.liquid.enabled;
   }
   // The largest (cloth_hang_388, 150 k particles) builds its tables eight times: one step. A
-  // liquid's neighbours and density constraints act from the first step; water_on_cloth's water
-  // reaches the cloth in the sixth.
+  // small liquid's neighbours and density constraints act from the first step; water_on_cloth's
+  // water reaches the cloth in the sixth.
   const int steps = particles > 100000                  ? 1
-                    : liquid                            ? 8
                     : particles > 5000 || selfColliding ? 4
+                    : liquid                            ? 8
                                                         : 30;
   for (SolverKind kind : {SolverKind::GaussSeidel, SolverKind::Jacobi,
                           SolverKind::ColoredGaussSeidel, SolverKind::Multigrid}) {
