@@ -239,6 +239,11 @@ TEST(Tearing, TornClothNeverIntersectsItself) {
 }
 
 TEST(Tearing, SameStateAtOneAndTwoThreads) {
+#if defined(__SANITIZE_ADDRESS__)
+  // Determinism is a property of the arithmetic, which the Release and double builds check; the
+  // sanitizer build runs the same tears in the other tests (it does not detect data races).
+  GTEST_SKIP() << "thread-count determinism is checked in the Release and double builds";
+#endif
   // The parallel backends, multigrid's levels rebuilt after every tear included.
   for (const SolverKind kind :
        {SolverKind::ColoredGaussSeidel, SolverKind::Jacobi, SolverKind::Multigrid}) {
