@@ -57,8 +57,13 @@ struct PrimitiveContactPool {
   std::vector<Index> incidenceOffset;
   std::vector<Index> incidence;
   std::vector<Real> incidenceCoefficient;  // c_k of each incidence entry, beside it
-  std::vector<Index> touched;              // particles with at least one contact, ascending
-  std::vector<Index> incidenceCursor;      // scratch of the incidence's parallel build
+  // Static (set with the derived tables): per particle, 1 for a liquid's; empty when the world
+  // has none. A contact with a liquid particle is mass-split in the parallel rounds
+  // (projectPrimitiveContacts), so that a cloth pressed by many particles carries their weight.
+  std::vector<std::uint8_t> splitParticle;
+  std::vector<std::uint8_t> splitStep;  // scratch of a round: 1 where the step was split
+  std::vector<Index> touched;           // particles with at least one contact, ascending
+  std::vector<Index> incidenceCursor;   // scratch of the incidence's parallel build
   // The scatter's per-particle sums of a round with few pressed contacts (zero between rounds):
   // Σ c_k × correction over the particle's pressed contacts in contact order, their count, and
   // the particles that have any.

@@ -758,6 +758,8 @@ void World::step(double dt) {
     s.contacts.extraReach.assign(liquids.size() > 0 ? s.particles.size() : 0, Real(0));
     for (Index particle : liquids.particle)
       s.contacts.extraReach[particle] = kLiquidContactReach * liquids.kernels.radius;
+    s.primitiveContacts.splitParticle.assign(liquids.size() > 0 ? s.particles.size() : 0, 0);
+    for (Index particle : liquids.particle) s.primitiveContacts.splitParticle[particle] = 1;
     s.kinematicContactDistance = smallestKinematicContact(s.primitives, s.objects, s.kinematics);
     s.objectEdgeLength = medianEdgeLengths(s.objects, s.particles);
     s.topologyDirty = false;

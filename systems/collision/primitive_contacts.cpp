@@ -465,6 +465,81 @@ void gatherCorrections(const PrimitiveContactPool& pool, ParticlePool& particles
                     });
 }
 
+// A parallel round where some contacts hold a liquid particle (pool.splitParticle). Those are
+// mass-split (Tonge et al. 2012): each particle k takes them with n_k times its inverse mass, n_k
+// its pressed contacts, each such step is scaled from Σ c_k² w_k to Σ c_k² w_k n_k, and a particle
+// moves by their sum, so each exchanges equal and opposite impulses. The other contacts keep the
+// mean of a particle's pressed ones, as in a world without liquids. Averaged, a cloth vertex
+// pressed by many particles of water took one push while each particle took its own: the cloth
+// carried about a tenth of the water resting on it (bench/results/2core-AMD-EPYC/liquids.md).
+// Splitting every contact kept the load but cost cloth piles and impacts their convergence (a
+// particle touching crowded ones is pushed by a fraction of its step), so only the liquids' are.
+void applySplitAndMeanSteps(PrimitiveContactPool& pool, ParticlePool& particles) {
+  const std::size_t n = pool.size();
+  const auto splits = [&](std::size_t c) {
+    for (int k = 0; k < 4; ++k)
+      if (pool.coefficient[c][k] != 0 && pool.splitParticle[pool.particles[c][k]]) return true;
+    return false;
+  };
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pool.touched.size(), kParticleGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t t = r.begin(); t != r.end(); ++t) {
+                        const Index i = pool.touched[t];
+                        Index active = 0;
+                        for (Index e = pool.incidenceOffset[i]; e < pool.incidenceOffset[i + 1];
+                             ++e)
+                          active += pool.step[pool.incidence[e] >> 2] != 0;
+                        pool.pressedCount[i] = active;
+                      }
+                    });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t c = r.begin(); c != r.end(); ++c) {
+                        const Real step = pool.step[c];
+                        if (step == 0 || !splits(c)) continue;
+                        Real split = 0;
+                        for (int k = 0; k < 4; ++k) {
+                          const Real coefficient = pool.coefficient[c][k];
+                          const Index i = pool.particles[c][k];
+                          split += coefficient * coefficient * particles.w[i] *
+                                   Real(std::max<Index>(pool.pressedCount[i], 1));
+                        }
+                        const Real m = pool.inverseMass[c];
+                        const Real scaled = split > 0 ? step * (m / split) : Real(0);
+                        pool.lambda[c] += (scaled - step) * m;
+                        pool.step[c] = scaled;
+                        pool.splitStep[c] = 1;
+                      }
+                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, pool.touched.size(), kParticleGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t t = r.begin(); t != r.end(); ++t) {
+          const Index i = pool.touched[t];
+          Vec3 summed = Vec3::Zero(), averaged = Vec3::Zero();
+          int active = 0;
+          for (Index e = pool.incidenceOffset[i]; e < pool.incidenceOffset[i + 1]; ++e) {
+            const Index c = pool.incidence[e] >> 2;
+            if (pool.step[c] == 0) continue;
+            const Vec3 delta = pool.incidenceCoefficient[e] * Vec3(pool.step[c] * pool.normal[c]);
+            if (pool.splitStep[c]) {
+              summed += delta;
+            } else {
+              averaged += delta;
+              ++active;
+            }
+          }
+          if (active > 0) summed += averaged / Real(active);
+          particles.p[i] += particles.w[i] * summed;
+          pool.pressedCount[i] = 0;
+        }
+      });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kPairGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t c = r.begin(); c != r.end(); ++c) pool.splitStep[c] = 0;
+                    });
+}
+
 // A round whose pressed contacts are at most 1/kScatterShare of all is applied by
 // scatterPressedSteps: the gather reads every contact of every touched particle, most of them
 // unpressed (cloth_drop_sphere's pile presses about one contact in twelve per round).
@@ -1000,6 +1075,14 @@ void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& part
                           primitiveContactSteps(contacts, particles, r.begin(), r.end()),
                           std::memory_order_relaxed);
                     });
+  if (!contacts.splitParticle.empty()) {
+    if (pressed.load() == 0) return;
+    if (contacts.pressedCount.size() != particles.size())
+      contacts.pressedCount.assign(particles.size(), 0);
+    contacts.splitStep.resize(n);  // zero outside a round (applySplitAndMeanSteps clears it)
+    applySplitAndMeanSteps(contacts, particles);
+    return;
+  }
   if (pressed.load() * kScatterShare <= n) {
     // Sized by buildContactIncidence; a pool filled otherwise gets its scratch here.
     if (contacts.pressedSum.size() != particles.size()) {
