@@ -327,7 +327,7 @@ Exchange strikeACloth(SolverKind kind, bool pinnedBorder) {
 // and no particle passes through the sheet. Projected in order (Gauss–Seidel), each contact moves
 // the particle and the triangle by opposite impulses; the parallel backends split the contacts
 // that hold a liquid particle by mass (projectPrimitiveContacts), which does the same. Momentum is
-// kept to 1% in both (measured: 0.1% and 0.7%); the cloth, a ninth of the water's mass, takes at
+// kept to 1% in both (measured: 0.01% and 0.7%); the cloth, a ninth of the water's mass, takes at
 // most a tenth of it (all of it moving together) and takes more than half of that (8.4% and
 // 8.2%). Before the split, the parallel rounds moved a cloth vertex by the mean of the many
 // particles' pushes and lost 21% of the momentum.
