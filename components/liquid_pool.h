@@ -91,9 +91,7 @@ struct LiquidPool {
   // is the projections' Σ (λ_i + λ_j)/ρ0 ∇W at equal masses (w = 1/m).
   std::vector<Real> lambdaTotal;
   // Projections whose move of a particle was shortened to the most a projection may move it
-  // (projectDensity), counted per particle; read and cleared by the solve's report. Per-slot
-  // flags, summed after each projection.
-  std::vector<std::uint8_t> limited;
+  // (projectDensity), counted per particle; read and cleared by the solve's report.
   std::uint64_t limitedMoves = 0;
   // Neighbours dropped beyond the stride, summed over substeps since creation.
   std::uint64_t droppedNeighbours = 0;

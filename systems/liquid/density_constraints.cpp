@@ -5,19 +5,13 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include "systems/liquid/neighbour_grid.h"
 #include "systems/liquid/sph_kernels.h"
 
 namespace nucleon {
 namespace {
-
-template <typename F>
-void forEachLiquidParticle(std::size_t n, F&& body) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i < range.end(); ++i) body(i);
-  });
-}
 
 // Σ_j w_j |∇_j C_i|² over the neighbours of an interior particle of a cubic lattice at spacing
 // d, mass m and rest density ρ0 (∇_i C_i vanishes there by symmetry): the scale of the
@@ -94,7 +88,6 @@ void appendLiquidObject(LiquidPool& pool, std::uint32_t objectIndex, Index first
   pool.delta.resize(n);
   pool.vorticity.resize(n);
   pool.normal.resize(n);
-  pool.limited.resize(n);
 }
 
 void startLiquidSubstep(LiquidPool& pool, const ParticlePool& particles) {
@@ -147,12 +140,12 @@ void projectDensity(LiquidPool& pool, ParticlePool& particles, Real maxMove,
     pool.lambdaOverDensity[s] = pool.lambda[s] * o.invRestDensity;
     pool.lambdaTotal[pool.slotParticle[s]] += pool.lambda[s];
   });
-  // Δp of every slot from every λ.
-  forEachLiquidParticle(n, [&](std::size_t s) {
+  // Δp of every slot from every λ, counting the moves shortened to maxMove.
+  const auto deltaOf = [&](std::size_t s) -> bool {
     const Real ws = pool.inverseMass[s];
     if (ws == 0 || !runs(s)) {
       pool.delta[s].setZero();
-      return;
+      return false;
     }
     const LiquidObject& o = pool.objects[pool.slotObject[s]];
     const Vec3 ps = pool.position[s];
@@ -171,19 +164,20 @@ void projectDensity(LiquidPool& pool, ParticlePool& particles, Real maxMove,
     // At most maxMove per projection, so that a substep's density projections together never
     // carry a particle beyond the collider contacts' reach (ContactPool::extraReach).
     const Real length2 = delta.squaredNorm();
-    if (length2 > maxMove * maxMove) {
-      delta *= maxMove / std::sqrt(length2);
-      pool.limited[s] = 1;
-    }
+    const bool limited = length2 > maxMove * maxMove;
+    if (limited) delta *= maxMove / std::sqrt(length2);
     pool.delta[s] = delta;
-  });
+    return limited;
+  };
+  pool.limitedMoves += tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n), std::uint64_t(0),
+      [&](const auto& range, std::uint64_t limited) {
+        for (std::size_t s = range.begin(); s < range.end(); ++s) limited += deltaOf(s);
+        return limited;
+      },
+      std::plus<>());
   forEachLiquidParticle(
       n, [&](std::size_t s) { particles.p[pool.particle[pool.slotParticle[s]]] += pool.delta[s]; });
-  for (std::size_t s = 0; s < n; ++s)
-    if (pool.limited[s]) {
-      ++pool.limitedMoves;
-      pool.limited[s] = 0;
-    }
 }
 
 std::vector<Real> liquidDensities(const LiquidPool& pool, std::span<const Vec3> x) {

@@ -6,17 +6,6 @@
 #include "systems/liquid/sph_kernels.h"
 
 namespace nucleon {
-namespace {
-
-template <typename F>
-void forEachLiquidParticle(std::size_t n, F&& body) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i < range.end(); ++i) body(i);
-  });
-}
-
-}  // namespace
-
 void applyLiquidVelocities(LiquidPool& pool, ParticlePool& particles, Real h) {
   bool viscosity = false, vorticity = false, tension = false;
   for (const LiquidObject& o : pool.objects) {

@@ -5,9 +5,20 @@
 #include <cstdint>
 #include <numbers>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "components/liquid_pool.h"
 
 namespace nucleon {
+
+// body(s) for every slot s < n, in parallel: the liquid passes each write their own slot.
+template <typename F>
+void forEachLiquidParticle(std::size_t n, F&& body) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i < range.end(); ++i) body(i);
+  });
+}
 
 inline LiquidKernels makeLiquidKernels(Real radius) {
   const double H = radius, pi = std::numbers::pi;
