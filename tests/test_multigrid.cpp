@@ -67,6 +67,20 @@ TEST(Multigrid, WithoutCoarseSweepsItIsColoredGaussSeidel) {
   test::simulate(colored, 20);
   test::simulate(multigrid, 20);
   EXPECT_EQ(colored.stateHash(), multigrid.stateHash());
+  EXPECT_EQ(multigrid.profile().cascade, 0.0);
+}
+
+// The profile books the cascade's time as a part of the solve's.
+TEST(Multigrid, ProfileBooksTheCascadeWithinTheSolve) {
+  World world = test::hangingCloth(32, 10);
+  world.setSolver(test::solverSettings(SolverKind::Multigrid, 10, 1));
+  test::simulate(world, 10);
+  EXPECT_GT(world.profile().cascade, 0.0);
+  EXPECT_LT(world.profile().cascade, world.profile().solve);
+  World colored = test::hangingCloth(32, 10);
+  colored.setSolver(test::solverSettings(SolverKind::ColoredGaussSeidel, 10, 1));
+  test::simulate(colored, 10);
+  EXPECT_EQ(colored.profile().cascade, 0.0);
 }
 
 // A stretchable cloth gets no cascade (hard coarse limits would stiffen it): the same state as

@@ -27,7 +27,8 @@ const char* const kBenchHelp =
     "  --lanes LIST      instruction sets of the batched kernels, e.g. avx2,avx512 (default: the\n"
     "                    best this CPU has; 'none' runs the scalar paths)\n"
     "Per configuration: ms/step (median of repeats), per-stage ms/step from the engine's\n"
-    "profile, million constraint projections per second, speedup and parallel efficiency\n"
+    "profile (cascade: the part of solve the multigrid cascade took), million constraint "
+    "projections per second, speedup and parallel efficiency\n"
     "against the first configuration of the solver, max/mean strain, the repairs the step made "
     "(recoveries,\n"
     "warm-up included; 0 in a healthy run) and the final state hash ('same' when it equals the\n"
@@ -144,7 +145,8 @@ Run runOnce(const Scene& scene, const BenchOptions& o) {
 const char* kCsvHeader =
     "scene,solver,iterations,threads,particles,steps,repeats,ms_per_step,ms_min,forces_ms,"
     "predict_ms,solve_ms,collisions_ms,update_ms,mprojections_per_s,speedup,efficiency,"
-    "max_strain,mean_strain,state_hash,same_hash,strain_p99,recoveries,nan_count,lanes\n";
+    "max_strain,mean_strain,state_hash,same_hash,strain_p99,recoveries,nan_count,lanes,"
+    "cascade_ms\n";
 
 }  // namespace
 
@@ -163,10 +165,10 @@ int runBench(const std::vector<std::string>& args, std::ostream& out, std::ostre
   }
   char line[512];
   std::snprintf(line, sizeof line,
-                "%-16s %-12s %6s %3s %3s %9s %7s %7s %7s %7s %7s %8s %6s %5s %9s %9s %5s %s\n",
+                "%-16s %-12s %6s %3s %3s %9s %7s %7s %7s %7s %7s %7s %8s %6s %5s %9s %9s %5s %s\n",
                 "scene", "solver", "lanes", "K", "T", "ms/step", "forces", "predict", "solve",
-                "contact", "update", "Mproj/s", "speed", "eff", "maxstrain", "meanstr", "recov",
-                "state hash");
+                "cascade", "contact", "update", "Mproj/s", "speed", "eff", "maxstrain", "meanstr",
+                "recov", "state hash");
   out << line;
   for (Scene scene : scenes) {
     if (o.iterations >= 0) {
@@ -203,16 +205,17 @@ int runBench(const std::vector<std::string>& args, std::ostream& out, std::ostre
           // Same meaning as nan_count in `nucleon run --stats`: non-finite values repaired during
           // the run plus those left in the final state.
           const std::uint64_t nanCount = median.recoveries.nonFinite + median.measures.nanCount;
-          std::snprintf(
-              line, sizeof line,
-              "%-16s %-12s %6s %3d %3d %9.3f %7.3f %7.3f %7.3f %7.3f %7.3f %8.1f %5.2fx %5.2f "
-              "%9.4f %9.5f %5llu %s%s\n",
-              scene.name.c_str(), toString(kind), laneIsaName(isa), scene.solver.iterations,
-              threads, median.msPerStep, perStep(p.forces), perStep(p.predict), perStep(p.solve),
-              perStep(p.collisions), perStep(p.update), mproj, speedup, efficiency,
-              median.measures.maxStrain, median.measures.meanStrain,
-              static_cast<unsigned long long>(median.recoveries.total()),
-              cli::hex16(median.hash).c_str(), same ? " same" : " DIFFERENT");
+          std::snprintf(line, sizeof line,
+                        "%-16s %-12s %6s %3d %3d %9.3f %7.3f %7.3f %7.3f %7.3f %7.3f %7.3f %8.1f "
+                        "%5.2fx %5.2f "
+                        "%9.4f %9.5f %5llu %s%s\n",
+                        scene.name.c_str(), toString(kind), laneIsaName(isa),
+                        scene.solver.iterations, threads, median.msPerStep, perStep(p.forces),
+                        perStep(p.predict), perStep(p.solve), perStep(p.cascade),
+                        perStep(p.collisions), perStep(p.update), mproj, speedup, efficiency,
+                        median.measures.maxStrain, median.measures.meanStrain,
+                        static_cast<unsigned long long>(median.recoveries.total()),
+                        cli::hex16(median.hash).c_str(), same ? " same" : " DIFFERENT");
           out << line << std::flush;
           if (csv)
             csv << scene.name << ',' << toString(kind) << ',' << scene.solver.iterations << ','
@@ -223,7 +226,8 @@ int runBench(const std::vector<std::string>& args, std::ostream& out, std::ostre
                 << speedup << ',' << efficiency << ',' << median.measures.maxStrain << ','
                 << median.measures.meanStrain << ',' << cli::hex16(median.hash) << ','
                 << (same ? 1 : 0) << ',' << median.measures.strainP99 << ','
-                << median.recoveries.total() << ',' << nanCount << ',' << laneIsaName(isa) << '\n';
+                << median.recoveries.total() << ',' << nanCount << ',' << laneIsaName(isa) << ','
+                << perStep(p.cascade) << '\n';
         }
     }
   }

@@ -419,6 +419,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
                                     {"animate", profile.animate * perStep},
                                     {"predict", profile.predict * perStep},
                                     {"solve", profile.solve * perStep},
+                                    {"cascade", profile.cascade * perStep},
                                     {"broad_phase", profile.broadPhase * perStep},
                                     {"narrow_phase", profile.narrowPhase * perStep},
                                     {"collisions", profile.collisions * perStep},

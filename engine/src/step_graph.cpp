@@ -203,6 +203,7 @@ void StepGraph::runStage(int stage) {
       profile.solve -= solve.contactSeconds;
       profile.collisions += solve.contactSeconds;
       profile.projections += s.plan.projectionsPerSubstep + solve.cascadeProjections;
+      profile.cascade += solve.cascadeSeconds;
       ++profile.substeps;
       logRepairs(s.recoveries, solve.missedContacts, s.recoveries.missedContacts, c.step);
       logRepairs(s.recoveries, solve.collapsedPressureProjections,

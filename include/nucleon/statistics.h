@@ -14,7 +14,9 @@ namespace nucleon {
 // them on their track after update); `broadPhase` and `narrowPhase` are the collision detection
 // between primitives (BVH and candidate pairs; primitive contacts), while `collisions` holds
 // collider contacts, the projection of every contact, friction, the crossing fail-safe and
-// restitution.
+// restitution. `cascade` is the part of `solve` that the multigrid cascade took: its coarse
+// sweeps and prolongations, the contact limits and projections between its levels, and the
+// collider contacts found again after it.
 struct StepProfile {
   double forces = 0;
   double animate = 0;
@@ -24,6 +26,7 @@ struct StepProfile {
   double broadPhase = 0;
   double narrowPhase = 0;
   double update = 0;
+  double cascade = 0;
   // Between substeps: tearing (Material::tear) after a step, and the rebuild of the derived
   // tables (colouring, incidence, levels, primitives, plan) a changed topology asks for.
   double tear = 0;

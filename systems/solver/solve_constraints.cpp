@@ -25,7 +25,8 @@ SolveSettings solveSettingsOf(const SolverSettings& solver) {
   settings.chebyshevRho = solver.chebyshevRho;
   settings.sheetRelaxation = solver.sheetRelaxation;
   settings.optimizedPaths = solver.optimizedPaths;
-  settings.cascade = solver.kind == SolverKind::Multigrid;
+  settings.cascade =
+      solver.kind == SolverKind::Multigrid && sweepsOfLevel(solver.sweepsPerLevel, 1) > 0;
   settings.cascadeEvery = solver.cascadeEvery;
   settings.sweepsPerLevel = solver.sweepsPerLevel;
   return settings;
@@ -60,6 +61,7 @@ void projectAllContacts(SolvePools& pools, SolverKind kind) {
 // new pool starts its multipliers at zero, so friction forgets the cascade's normal pushes.
 void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepContext& context,
                 SolveReport& report) {
+  const auto start = std::chrono::steady_clock::now();
   report.cascadeProjections += runMultigridCascade(
       pools.hierarchies, pools.objects, pools.particles, pools.cascade, settings.sweepsPerLevel,
       [](void* p, std::span<const Index> moved) {
@@ -79,6 +81,8 @@ void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepC
     projectContacts(pools.contacts, pools.colliders, pools.particles, settings.sweepKind);
     ++report.colliderRedetections;
   }
+  report.cascadeSeconds +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 // The candidate pairs of the actual motion x → p where contacts and collider responses moved a

@@ -70,6 +70,7 @@ struct SolveReport {
   std::size_t incrementalRedetections = 0;  // of which only around the particles off course
   std::size_t colliderRedetections = 0;     // collider contacts found again after a cascade
   std::size_t cascadeProjections = 0;
+  double cascadeSeconds = 0;  // the cascades of the substep, within the solve's time
   std::uint64_t collapsedPressureProjections = 0;  // gas pressures taken at the least volume
   std::uint64_t limitedPressureSteps = 0;          // gas steps held to half the volume
   std::uint64_t limitedDensityMoves = 0;           // liquid moves shortened (projectDensity)
