@@ -134,6 +134,13 @@ struct CascadeScratch {
   std::vector<Vec3> start;
   std::vector<Real> limit;
   std::vector<std::uint8_t> held;
+  // Per particle, the static mesh it rests on this cascade (multigrid_cascade.cpp): the contact's
+  // separating plane n · p ≥ offset, and the mesh's support id (kNoSupport: none), or the sphere
+  // collider it touches (its normal only).
+  std::vector<Index> supportId;
+  std::vector<Vec3> supportNormal;
+  std::vector<Real> supportOffset;
+  std::vector<Index> onSpheres;  // one level's particles on a sphere collider
 };
 
 }  // namespace nucleon

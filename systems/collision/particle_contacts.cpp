@@ -211,14 +211,6 @@ void projectContactsOf(ContactPool& contacts, const ColliderPool& colliders,
                     });
 }
 
-// A particle without a contact was at least its predicted motion plus kContactReach from every
-// collider when the pool was filled. It needs a contact only once the solve has carried it to
-// within its motion x → p plus half that margin: the other half is left for the sweeps after the
-// check. With the full margin, a particle whose coarse correction lengthened its motion by a
-// fraction of a millimetre counted as missing, and a draped cloth's pool was filled again after
-// four cascades in five.
-constexpr Real kMissingReach = kContactReach / 2;
-
 bool contactsMissing(const ContactPool& contacts, const ColliderPool& colliders,
                      const ParticlePool& particles) {
   if (colliders.size() == 0) return false;
@@ -228,8 +220,7 @@ bool contactsMissing(const ContactPool& contacts, const ColliderPool& colliders,
         for (std::size_t i = r.begin(); i != r.end() && !missing; ++i) {
           if (particles.w[i] == 0 || contacts.runStart[i] != contacts.runStart[i + 1]) continue;
           for (std::size_t k = 0; k < colliders.size() && !missing; ++k)
-            missing = inReach(colliders, k, particles.x[i], particles.p[i],
-                              kMissingReach - kContactReach);
+            missing = inReach(colliders, k, particles.x[i], particles.p[i]);
         }
         return missing;
       },

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 
 #include <tbb/blocked_range.h>
@@ -47,6 +48,14 @@ void projectLimit(ParticlePool& particles, const std::array<Index, 2>& edge, Rea
 // the other at the next colour, and under load the 256² cascade took 1.4–1.7 ms instead of
 // 0.9–1.0: bench/results/2core-AMD-EPYC/solver_speed.md §12.)
 constexpr std::size_t kSerialEdges = 8192;
+
+// Support ids: a sphere collider's index, or a static mesh's object id with the high bit set.
+constexpr Index kNoSupport = ~Index(0);
+constexpr Index kMeshSupport = Index(1) << 31;
+// How far outside a support's surface a particle may be and still rest on it (m): within the
+// contact pool's reach a particle may hover over the surface, where the surface's curvature says
+// nothing about the material's.
+constexpr Real kSupportGap = Real(0.0025);
 
 // f(k) for k in [0, count): on the calling thread when `serial` (a small level), else split
 // statically into pieces of `grain` among the arena's threads.
@@ -119,6 +128,41 @@ void sweepLevelTethers(const HierarchyLevel& level, ParticlePool& particles) {
   forEachIndex(level.particles.size(), level.edges.size() < kSerialEdges, kParticleGrain, project);
 }
 
+// sin(θ/2)/(θ/2) for the angle θ between two unit normals with cosine c: the chord of a
+// circular arc of unit length turning by θ. With s = sin(θ/2) = √((1 − c)/2), θ/2 = asin s: up
+// to θ = 60° by the series of asin s / s to s⁶ (relative error below 2e-4), a few multiplications
+// (acos and sin for each coarse edge of a draped cloth took longer than the cascade's sweeps);
+// wider turns, rare, exactly.
+Real arcChordRatio(Real c) {
+  const Real s2 = std::clamp((1 - c) / 2, Real(0), Real(1));
+  if (s2 > Real(0.25)) {
+    const Real s = std::sqrt(s2);
+    return s / std::asin(s);
+  }
+  return 1 / (1 + s2 * (Real(1) / 6 + s2 * (Real(3) / 40 + s2 * (Real(5) / 112))));
+}
+
+// Between the sweeps of a level: each of its particles that rests on a static mesh is put back
+// onto its contact's separating plane, n · p ≥ offset, along n (no multiplier: primitive contacts
+// take their friction after the sweeps, and are projected with every other contact after the
+// level). A coarse edge over a curved patch pulls its ends along the chord, into the support;
+// left there for the level's remaining sweeps, a particle was dragged ever deeper toward its
+// neighbours, and pushed out after the level it landed spread apart from them
+// (bench/results/2core-AMD-EPYC/solver_speed.md §13). Particles on sphere colliders are settled
+// by the hook (their contacts, with friction, as after every fine sweep round).
+void keepOnMeshes(const HierarchyLevel& level, const CascadeScratch& scratch,
+                  ParticlePool& particles) {
+  const Index* support = scratch.supportId.data();
+  forEachIndex(level.particles.size(), level.edges.size() < kSerialEdges, kParticleGrain,
+               [&](std::size_t k) {
+                 const Index i = level.particles[k];
+                 if (support[i] == kNoSupport || !(support[i] & kMeshSupport)) return;
+                 const Vec3& normal = scratch.supportNormal[i];
+                 const Real gap = normal.dot(particles.p[i]) - scratch.supportOffset[i];
+                 if (gap < 0) particles.p[i] -= gap * normal;
+               });
+}
+
 // p_f = q_f + Σ_j w_fj (p_j − q_j) for the fine particles of `level` (total displacement), except
 // the particles that have primitive contacts: they keep the place their contacts gave them. The
 // prolonged place would drop that push (it starts from q_f), and an interpolated one would cut
@@ -185,27 +229,85 @@ void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& part
       }
     return false;
   };
+  // The surface a particle rests on: a sphere collider's contact surface, or the separating plane
+  // of a vertex contact with a static mesh at rest, as the plane tangent to it at the particle.
+  const auto findSupport = [&](Index i) {
+    if (particles.w[i] == 0) return;  // a pin stays where it is
+    if (contacts)
+      for (Index c = contacts->runStart[i]; c != contacts->runStart[i + 1]; ++c) {
+        const Index k = contacts->collider[c];
+        if (colliders->shape[k] != ColliderShape::Sphere) continue;
+        const Vec3 offset = particles.p[i] - colliders->point[k];
+        const Real distance = offset.norm();
+        if (!(distance > Real(1e-12))) continue;
+        const Real surface = colliders->radius[k] + colliders->thickness[k];
+        if (distance - surface > kSupportGap) continue;
+        const Vec3 normal = offset / distance;
+        scratch.supportId[i] = k;
+        scratch.supportNormal[i] = normal;
+        scratch.supportOffset[i] = normal.dot(colliders->point[k]) + surface;
+        return;
+      }
+    if (primitive)
+      for (Index e = primitive->incidenceOffset[i]; e != primitive->incidenceOffset[i + 1]; ++e) {
+        const Index c = primitive->incidence[e] >> 2, slot = primitive->incidence[e] & 3;
+        if (primitive->coefficient[c][slot] != 1) continue;  // not the contact's lone vertex
+        bool staticMesh = true;
+        Index mesh = kNoSupport;
+        Real offset = primitive->distance[c];
+        const Vec3 normal = primitive->normal[c];
+        for (Index s = 0; s < 4 && staticMesh; ++s) {
+          const Real coefficient = primitive->coefficient[c][s];
+          if (s == slot || coefficient == 0) continue;
+          const Index j = primitive->particles[c][s];
+          staticMesh = particles.w[j] == 0 && particles.p[j] == particles.x[j];
+          mesh = particles.phase[j];
+          offset -= coefficient * normal.dot(particles.p[j]);
+        }
+        if (!staticMesh || mesh == kNoSupport) continue;
+        if (normal.dot(particles.p[i]) - offset > kSupportGap) continue;
+        scratch.supportId[i] = kMeshSupport | mesh;
+        scratch.supportNormal[i] = normal;
+        scratch.supportOffset[i] = offset;
+        return;
+      }
+  };
   std::uint8_t* held = scratch.held.data();
-  const Index first = hierarchy.firstParticle;
-  forEachIndex(hierarchy.particleCount, hierarchy.particleCount < kSerialEdges, kParticleGrain,
-               [&](std::size_t k) {
-                 const Index i = first + static_cast<Index>(k);
-                 held[i] = heldBent(i) ? 1 : 0;
-               });
+  // Only the coarse particles end coarse edges and are swept: level 1 holds them all.
+  const std::vector<Index>& coarse = hierarchy.levels[1].particles;
+  forEachIndex(coarse.size(), coarse.size() < kSerialEdges, kParticleGrain, [&](std::size_t k) {
+    const Index i = coarse[k];
+    held[i] = heldBent(i) ? 1 : 0;
+    scratch.supportId[i] = kNoSupport;
+    findSupport(i);
+  });
+  const Index* support = scratch.supportId.data();
+  const Vec3* supportNormal = scratch.supportNormal.data();
   for (std::size_t l = 1; l < hierarchy.levels.size(); ++l) {
     const HierarchyLevel& level = hierarchy.levels[l];
     Real* limit = scratch.limit.data() + level.scratchBase;
-    forEachIndex(level.edges.size(), level.edges.size() < kSerialEdges, kEdgeGrain,
-                 [&](std::size_t e) {
-                   const std::array<Index, 4>& path = level.path[e];
-                   limit[e] = level.restLength[e];
-                   if (!held[path[0]] || !held[path[3]]) return;
-                   const Vec3 a = particles.p[path[0]], f = particles.p[path[1]],
-                              g = particles.p[path[2]], b = particles.p[path[3]];
-                   const Real length = (f - a).norm() + (g - f).norm() + (b - g).norm();
-                   if (!(length > level.pathRest[e])) return;
-                   limit[e] = std::min(limit[e], (b - a).norm() * level.pathRest[e] / length);
-                 });
+    forEachIndex(
+        level.edges.size(), level.edges.size() < kSerialEdges, kEdgeGrain, [&](std::size_t e) {
+          const std::array<Index, 4>& path = level.path[e];
+          const Real rest = level.restLength[e];
+          limit[e] = rest;
+          // Both ends on one curved support that turns away between them (convex): the
+          // material between them, at rest length along the surface, is an arc of the
+          // turning angle θ between the supports' normals, whose chord is rest ×
+          // sin(θ/2)/(θ/2). Over a concave support the material may span straight.
+          const Index from = path[0], to = path[3];
+          if (support[from] != kNoSupport && support[from] == support[to] &&
+              (supportNormal[to] - supportNormal[from]).dot(particles.p[to] - particles.p[from]) >
+                  0) {
+            limit[e] = rest * arcChordRatio(supportNormal[from].dot(supportNormal[to]));
+          }
+          if (!held[path[0]] || !held[path[3]]) return;
+          const Vec3 a = particles.p[path[0]], f = particles.p[path[1]], g = particles.p[path[2]],
+                     b = particles.p[path[3]];
+          const Real length = (f - a).norm() + (g - f).norm() + (b - g).norm();
+          if (!(length > level.pathRest[e])) return;
+          limit[e] = std::min(limit[e], (b - a).norm() * level.pathRest[e] / length);
+        });
   }
 }
 
@@ -221,6 +323,9 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
   start.resize(particles.size());
   scratch.limit.resize(hierarchies.coarseEdges);
   scratch.held.resize(particles.size());
+  scratch.supportId.resize(particles.size());
+  scratch.supportNormal.resize(particles.size());
+  scratch.supportOffset.resize(particles.size());
   const std::size_t n = particles.size();
   const ContactPool* colliderContacts = contacts.colliderContacts && contacts.colliders &&
                                                 contacts.colliderContacts->size() > 0 &&
@@ -255,14 +360,29 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
       const Real* limit =
           limits ? scratch.limit.data() + level.scratchBase : level.restLength.data();
       const int sweeps = sweepsOfLevel(sweepsPerLevel, l);
-      for (int k = 0; k < sweeps; ++k) sweepLevel(level, limit, particles);
+      // The level's particles resting on a sphere collider, whose contacts the hook projects
+      // between sweeps (a plane bends nothing, and a coarse edge's pull along it stays on it).
+      std::vector<Index>& onSpheres = scratch.onSpheres;
+      onSpheres.clear();
+      if (limits && sweeps > 1)
+        for (const Index i : level.particles)
+          if (scratch.supportId[i] != kNoSupport && !(scratch.supportId[i] & kMeshSupport))
+            onSpheres.push_back(i);
+      for (int k = 0; k < sweeps; ++k) {
+        sweepLevel(level, limit, particles);
+        // After the last sweep the hook settles every contact of the level's particles.
+        if (!limits || k + 1 == sweeps) continue;
+        keepOnMeshes(level, scratch, particles);
+        if (afterLevel && !onSpheres.empty())
+          afterLevel(context, onSpheres, CascadeMoment::BetweenSweeps);
+      }
       if (sweeps > 0) sweepLevelTethers(level, particles);
       projections += level.edges.size() * static_cast<std::size_t>(sweeps) +
                      (sweeps > 0 ? level.tetherPin.size() : 0);
-      if (afterLevel) afterLevel(context, level.particles);
+      if (afterLevel) afterLevel(context, level.particles, CascadeMoment::AfterLevel);
       prolong(hierarchy.levels[l - 1], particles, start, contactOffsets);
     }
-    if (afterLevel) afterLevel(context, {});
+    if (afterLevel) afterLevel(context, {}, CascadeMoment::AfterCascade);
   }
   return projections;
 }

@@ -64,11 +64,18 @@ void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepC
   const auto start = std::chrono::steady_clock::now();
   report.cascadeProjections += runMultigridCascade(
       pools.hierarchies, pools.objects, pools.particles, pools.cascade, settings.sweepsPerLevel,
-      [](void* p, std::span<const Index> moved) {
+      [](void* p, std::span<const Index> moved, CascadeMoment moment) {
         SolvePools& solvePools = *static_cast<SolvePools*>(p);
+        // Between two sweeps of a level: the level's collider contacts, with their friction, as
+        // between fine sweep rounds (the primitive contacts, whose projection moves particles of
+        // any level, would cost a full projection per coarse sweep).
+        if (moment == CascadeMoment::BetweenSweeps) {
+          projectContactsOf(solvePools.contacts, solvePools.colliders, solvePools.particles, moved);
+          return;
+        }
         // The primitive contacts move particles of any level, which the collider contacts
         // projected after them must then settle: all of them, as after a sweep round.
-        if (moved.empty() || solvePools.primitiveContacts.size() > 0) {
+        if (moment == CascadeMoment::AfterCascade || solvePools.primitiveContacts.size() > 0) {
           projectAllContacts(solvePools, SolverKind::ColoredGaussSeidel);
           return;
         }
