@@ -205,7 +205,9 @@ void prolong(const HierarchyLevel& level, ParticlePool& particles, const std::ve
 // (there the limit only squeezed a pile's folds); and a curtain pushed by a moving box, its shape
 // measured at the prediction, got chords no motion could give it (an edge at 3.6 times its rest
 // length: bench/results/2core-AMD-EPYC/solver_speed.md §11). Measured once per cascade, from the
-// positions it starts from.
+// positions it starts from. The same pass finds each coarse particle's support (the sphere
+// collider or static mesh it rests on), which gives the convex-support limit below and what the
+// pauses between a level's sweeps keep the particle on (keepOnMeshes, the hook's BetweenSweeps).
 // `contacts` and `primitive` are the substep's collider and primitive contacts, null for none.
 void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& particles,
                       const ContactPool* contacts, const ColliderPool* colliders,
