@@ -579,8 +579,6 @@ void World::setSolver(const SolverSettings& settings) {
     require(sweeps >= 0 && sweeps <= 1000, "sweeps per level must be in [0, 1000]");
   require(settings.cascadeEvery >= 0 && settings.cascadeEvery <= 100000,
           "cascade_every must be in [0, 100000]");
-  require(settings.cascadeSubsteps >= 1 && settings.cascadeSubsteps <= 10000,
-          "cascade_substeps must be in [1, 10000]");
   require(settings.smoother == SolverKind::GaussSeidel || settings.smoother == SolverKind::Jacobi ||
               settings.smoother == SolverKind::ColoredGaussSeidel,
           "the multigrid smoother must be gauss-seidel, jacobi or colored-gs");

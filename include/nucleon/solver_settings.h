@@ -68,13 +68,6 @@ struct SolverSettings {
   // Multigrid: the cascade also runs again after every `cascadeEvery` fine sweep rounds (0: only
   // before the first), each time from the positions the fine sweeps left.
   int cascadeEvery = 0;
-  // Multigrid: the cascade runs in substeps 0, n, 2n, … of each step (n = `cascadeSubsteps`), the
-  // others take fine sweeps only. The cascade carries what a substep's few sweeps cannot: long-
-  // range stretch, which builds up over a step, not within one small substep; with several
-  // substeps per step, every second one carries it as far (a drape on a sphere at 4 substeps ×
-  // 2 sweeps: 1.18% mean strain against 1.21%, at 2.8 instead of 3.9 ms/step;
-  // bench/results/2core-AMD-EPYC/solver_speed.md §14).
-  int cascadeSubsteps = 1;
   // Multigrid: the backend of its fine sweeps, colored-gs (default), jacobi or gauss-seidel (not
   // multigrid). The cascade is the same for all three (ARCHITECTURE.md §3).
   SolverKind smoother = SolverKind::ColoredGaussSeidel;

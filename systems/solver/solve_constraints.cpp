@@ -28,7 +28,6 @@ SolveSettings solveSettingsOf(const SolverSettings& solver) {
   settings.cascade =
       solver.kind == SolverKind::Multigrid && sweepsOfLevel(solver.sweepsPerLevel, 1) > 0;
   settings.cascadeEvery = solver.cascadeEvery;
-  settings.cascadeSubsteps = solver.cascadeSubsteps;
   settings.sweepsPerLevel = solver.sweepsPerLevel;
   return settings;
 }
@@ -257,9 +256,7 @@ void finishPrimitiveContacts(SolvePools& pools, const SolveSettings& settings,
 SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
                              const SubstepContext& context) {
   SolveReport report;
-  // Not in every substep where cascadeSubsteps > 1: then neither repeated within it.
-  const bool cascade = settings.cascade && context.substep % settings.cascadeSubsteps == 0;
-  if (cascade) runCascade(pools, settings, context, report);
+  if (settings.cascade) runCascade(pools, settings, context, report);
   // Sweeps of `multigrid` itself take its default smoother, colored Gauss–Seidel.
   const SolverKind kind = settings.sweepKind == SolverKind::Multigrid
                               ? SolverKind::ColoredGaussSeidel
@@ -290,7 +287,7 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
     if (!op.endsRound) continue;
     if (anyContacts) report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
     // The repeated cascade, from the positions the fine sweeps left.
-    if (++roundsDone < plan.rounds && cascade && settings.cascadeEvery > 0 &&
+    if (++roundsDone < plan.rounds && settings.cascade && settings.cascadeEvery > 0 &&
         roundsDone % settings.cascadeEvery == 0)
       runCascade(pools, settings, context, report);
   }

@@ -41,7 +41,6 @@ struct SolveSettings {
   // only before the first), with `sweepsPerLevel` sweeps of each coarse level.
   bool cascade = false;
   int cascadeEvery = 0;
-  int cascadeSubsteps = 1;  // the cascade runs in substeps 0, n, 2n, … of each step
   std::span<const int> sweepsPerLevel;
 };
 // Refers to solver.sweepsPerLevel: the settings live as long as `solver`.
