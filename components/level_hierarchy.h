@@ -134,9 +134,9 @@ struct CascadeScratch {
   std::vector<Vec3> start;
   std::vector<Real> limit;
   std::vector<std::uint8_t> held;
-  // Per particle, the static mesh it rests on this cascade (multigrid_cascade.cpp): the contact's
-  // separating plane n · p ≥ offset, and the mesh's support id (kNoSupport: none), or the sphere
-  // collider it touches (its normal only).
+  // Per coarse particle, the curved surface it rests on this cascade (multigrid_cascade.cpp): a
+  // sphere collider or a static mesh (supportId; kNoSupport: none), the surface's normal there,
+  // and for a mesh its contact's separating plane n · p ≥ offset.
   std::vector<Index> supportId;
   std::vector<Vec3> supportNormal;
   std::vector<Real> supportOffset;

@@ -231,8 +231,8 @@ void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& part
       }
     return false;
   };
-  // The surface a particle rests on: a sphere collider's contact surface, or the separating plane
-  // of a vertex contact with a static mesh at rest, as the plane tangent to it at the particle.
+  // The surface a particle rests on: a sphere collider's contact surface (its normal at the
+  // particle), or the separating plane of a vertex contact with a static mesh at rest.
   const auto findSupport = [&](Index i) {
     if (particles.w[i] == 0) return;  // a pin stays where it is
     if (contacts)
@@ -244,10 +244,9 @@ void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& part
         if (!(distance > Real(1e-12))) continue;
         const Real surface = colliders->radius[k] + colliders->thickness[k];
         if (distance - surface > kSupportGap) continue;
-        const Vec3 normal = offset / distance;
+        // The hook projects this particle's own contacts between sweeps: only the normal is kept.
         scratch.supportId[i] = k;
-        scratch.supportNormal[i] = normal;
-        scratch.supportOffset[i] = normal.dot(colliders->point[k]) + surface;
+        scratch.supportNormal[i] = offset / distance;
         return;
       }
     if (primitive)
