@@ -10,6 +10,7 @@ packages=(
   libeigen3-dev libtbb-dev libembree-dev
   libgtest-dev libbenchmark-dev
   nlohmann-json3-dev libtinyobjloader-dev libstb-dev
+  parallel
 )
 if [[ "${1:-}" == "bench" ]]; then
   packages+=(libbullet-dev gnuplot-nox)

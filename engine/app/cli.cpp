@@ -2,6 +2,7 @@
 #include "engine/app/bench_command.h"
 #include "engine/app/ccd_command.h"
 #include "engine/app/cli_args.h"
+#include "engine/app/sweep_command.h"
 
 #include <unistd.h>
 
@@ -19,9 +20,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "nucleon/checkpoint.h"
 #include "nucleon/mesh_io.h"
 #include "nucleon/render.h"
 #include "nucleon/scene.h"
+#include "nucleon/usd.h"
 
 namespace nucleon {
 namespace {
@@ -40,6 +43,12 @@ const char* kUsage =
     "                              [--iterations K] [--out DIR] [--stats FILE.json]\n"
     "                              [--render FILE.png] [--quiet] [--max-kinematic-travel M]\n"
     "                              [--max-impact-travel M]\n"
+    "                              [--usd FILE.usda] [--set KEY=VALUE]\n"
+    "                              [--checkpoint-every N DIR]\n"
+    "                              [--resume CHECKPOINT]\n"
+    "       nucleon sweep SCENE.json --set KEY=V1,V2,.. [--set ..] [--frames N] [--threads T]\n"
+    "                              [--jobs J] [--out DIR] [--csv FILE] [--emit]\n"
+    "       nucleon sweep --gather DIR [--csv FILE]\n"
     "       nucleon bench SCENE|NAME ... [--threads 1,2,..] [--solver a,b] [--iterations K]\n"
     "                              [--steps N] [--warmup W] [--repeats R] [--csv FILE]\n"
     "                              [--lanes avx2,avx512]\n"
@@ -58,6 +67,7 @@ const char* kRunHelp =
     "  --out DIR         write one OBJ per object per frame into DIR\n"
     "  --stats FILE      write run statistics as JSON\n"
     "  --render FILE     write a PNG picture of the last frame\n"
+    "  --usd FILE.usda   write the run as one USD layer, points sampled every frame\n"
     "  --quiet           no progress output\n"
     "  --max-kinematic-travel M\n"
     "                    the farthest (m) a moving collider's vertex or an animated pin may\n"
@@ -68,6 +78,15 @@ const char* kRunHelp =
     "                    the farthest (m) the median free particle of an object that may\n"
     "                    strike a collider may go in one substep before a step takes more\n"
     "                    substeps (0: never; default: 1.5 times its median edge length)\n"
+    "  --set KEY=VALUE   change a setting of the scene file: KEY is its JSON path with dots\n"
+    "                    (solver.iterations, objects.0.material.friction), VALUE JSON or text\n"
+    "                    (repeatable)\n"
+    "  --checkpoint-every N DIR\n"
+    "                    after every N-th frame write the world's state to\n"
+    "                    DIR/SCENE_FRAME.ckpt (binary; see --resume)\n"
+    "  --resume FILE     start from a checkpoint instead of the scene's first frame and run\n"
+    "                    the frames after it: the same scene file and settings flags as the\n"
+    "                    run that wrote it (refused otherwise), ending in the same state\n"
     "Flags override the scene file, which overrides the defaults. Bad input: exit code 2.\n";
 
 // An edge this many times its rest length (or longer) in any frame makes a run not clean: the
@@ -106,8 +125,11 @@ struct RunOptions {
   std::optional<double> maxKinematicTravel;
   std::optional<double> maxImpactTravel;
   std::optional<std::string> solver;
-  std::string outDir, statsFile, renderFile;
+  std::string outDir, statsFile, renderFile, usdFile;
   bool quiet = false;
+  std::vector<std::string> sets;  // --set KEY=VALUE, in order
+  int checkpointEvery = 0;        // 0: no checkpoints
+  std::string checkpointDir, resumeFile;
 };
 
 RunOptions parseRun(const std::vector<std::string>& args) {
@@ -134,8 +156,17 @@ RunOptions parseRun(const std::vector<std::string>& args) {
       o.statsFile = value();
     else if (a == "--render")
       o.renderFile = value();
+    else if (a == "--usd")
+      o.usdFile = value();
     else if (a == "--quiet")
       o.quiet = true;
+    else if (a == "--checkpoint-every") {
+      o.checkpointEvery = parseInt(a, value(), 1, 1000000);
+      o.checkpointDir = value();
+    } else if (a == "--set")
+      o.sets.push_back(value());
+    else if (a == "--resume")
+      o.resumeFile = value();
     else if (a == "--max-kinematic-travel")
       o.maxKinematicTravel = parseNumber(a, value(), 0, 1000);
     else if (a == "--max-impact-travel")
@@ -189,11 +220,26 @@ class Progress {
   Clock::time_point last_;
 };
 
+// What a checkpoint must have been written for: the scene's text after --set (FNV-1a) and the
+// settings the other flags may change. Readable, so that a refusal says what differs.
+std::string runLabel(const std::string& text, const Scene& scene) {
+  std::uint64_t hash = 1469598103934665603ull;
+  for (const unsigned char c : text) hash = (hash ^ c) * 1099511628211ull;
+  std::ostringstream label;
+  label << scene.name << " file " << hex16(hash) << ", " << toString(scene.solver.kind) << " x"
+        << scene.solver.iterations << ", " << scene.solver.substeps << " substeps, travel "
+        << scene.solver.maxKinematicTravel << '/' << scene.solver.maxImpactTravel << ", "
+        << scene.fps << " fps";
+  return label.str();
+}
+
 int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const RunOptions o = parseRun(args);
   Scene scene;
+  std::string sceneText;  // after --set
   try {
-    scene = loadScene(o.scene);
+    sceneText = applySceneOverrides(readSceneFile(o.scene), o.sets, o.scene);
+    scene = parseScene(sceneText, o.scene, fs::path(o.scene).parent_path().string());
   } catch (const SceneError& e) {
     throw UsageError(e.what());
   }
@@ -211,6 +257,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
     throw UsageError("--solver: unknown solver '" + *o.solver + "'");
   checkWritable(o.statsFile, "--stats");
   checkWritable(o.renderFile, "--render");
+  checkWritable(o.usdFile, "--usd");
   if (!o.outDir.empty() && fs::exists(o.outDir) && !fs::is_directory(o.outDir))
     throw UsageError("--out: '" + o.outDir + "' exists and is not a folder");
   World world;
@@ -220,20 +267,47 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
     throw UsageError(e.what());
   }
 
+  // A checkpoint is read before anything is written, so that a refused one fails up front.
+  const std::string label = runLabel(sceneText, scene);
+  int firstFrame = 1;
+  if (!o.resumeFile.empty()) {
+    std::ifstream in(o.resumeFile, std::ios::binary);
+    if (!in) throw UsageError("--resume: cannot open '" + o.resumeFile + "'");
+    try {
+      loadCheckpoint(world, in, label);
+    } catch (const CheckpointError& e) {
+      throw UsageError(o.resumeFile + ": " + e.what());
+    }
+    firstFrame = static_cast<int>(world.steps()) + 1;
+    if (firstFrame > scene.frames)
+      throw UsageError("--resume: the checkpoint is at frame " + std::to_string(firstFrame - 1) +
+                       ", the run has " + std::to_string(scene.frames) + " frames");
+  }
+  if (o.checkpointEvery > 0 && world.tearReport().spareParticles > 0)
+    throw UsageError(
+        "--checkpoint-every: the scene has a tearable cloth, whose torn mesh "
+        "checkpoints cannot hold yet");
+  if (o.checkpointEvery > 0 && fs::exists(o.checkpointDir) && !fs::is_directory(o.checkpointDir))
+    throw UsageError("--checkpoint-every: '" + o.checkpointDir + "' exists and is not a folder");
+
   // Input is valid: from here on outputs are written. Advice on the scene comes first, quiet or
   // not: it says why a run may turn out not clean.
   const std::vector<std::string> warnings = world.warnings();
   for (const std::string& line : warnings) err << "warning: " << line << '\n';
   if (!o.outDir.empty()) fs::create_directories(o.outDir);
+  if (o.checkpointEvery > 0) fs::create_directories(o.checkpointDir);
   const double dt = 1.0 / scene.fps;
   nlohmann::json perFrame = nlohmann::json::array(), energy = nlohmann::json::array();
   double stepSeconds = 0;
   std::vector<double> frameMs;  // each frame's step, for the percentiles
   // What keeps a run from being clean, frame by frame (every frame counts, not only the last).
   FailureTally failures;
-  Progress progress(err, scene.frames, o.quiet);
+  const int framesRun = scene.frames - firstFrame + 1;
+  std::optional<UsdRecorder> usd;
+  if (!o.usdFile.empty()) usd.emplace(world, scene.fps);
+  Progress progress(err, framesRun, o.quiet);
   const auto wallStart = Clock::now();
-  for (int frame = 1; frame <= scene.frames; ++frame) {
+  for (int frame = firstFrame; frame <= scene.frames; ++frame) {
     const auto start = Clock::now();
     const std::uint64_t substepsBefore = world.profile().substeps;
     world.step(dt);
@@ -276,11 +350,25 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
         writeObj((fs::path(o.outDir) / name.str()).string(), world.positions(id),
                  world.surfaceTriangles(id), world.curveEdges(id));
       }
-    progress.update(frame);
+    if (usd) usd->addFrame(world, frame);
+    if (o.checkpointEvery > 0 && frame % o.checkpointEvery == 0) {
+      std::ostringstream name;
+      name << scene.name << '_' << std::setw(4) << std::setfill('0') << frame << ".ckpt";
+      const std::string path = (fs::path(o.checkpointDir) / name.str()).string();
+      // Written whole under another name first: a reader never finds half a checkpoint.
+      {
+        std::ofstream file(path + ".part", std::ios::binary);
+        saveCheckpoint(world, file, label);
+        file.close();
+        if (!file) throw std::runtime_error(path + ": cannot write");
+      }
+      fs::rename(path + ".part", path);
+    }
+    progress.update(frame - firstFrame + 1);
   }
   const double wall = std::chrono::duration<double>(Clock::now() - wallStart).count();
   const Measures m = world.measure();
-  const double msPerStep = stepSeconds * 1e3 / scene.frames;
+  const double msPerStep = stepSeconds * 1e3 / framesRun;
   // The world is new and `run` steps it once per frame, so the world's counters cover exactly
   // this run and its 1-based step of the first repair is the frame of the stats.
   const Recoveries& recoveries = world.recoveries();
@@ -314,7 +402,8 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
   nlohmann::json stats = {
       {"scene", scene.name},
       {"frames", scene.frames},
-      {"steps", scene.frames},
+      {"steps", framesRun},
+      {"resumed_from_frame", firstFrame - 1},
       {"substeps", scene.solver.substeps},
       {"iterations", scene.solver.iterations},
       {"threads", world.threads()},
@@ -461,6 +550,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
     if (!file) throw std::runtime_error(o.statsFile + ": cannot write");
   }
   if (!o.renderFile.empty()) renderPng(world, o.renderFile);
+  if (usd) usd->write(o.usdFile);
 
   out << scene.name << ": " << scene.frames << " frames, " << world.particleCount()
       << " particles, " << world.constraintCount(ConstraintFamily::Stretch)
@@ -489,6 +579,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
     out << '\n';
   }
   if (!o.renderFile.empty()) out << "  picture: " << o.renderFile << '\n';
+  if (!o.usdFile.empty()) out << "  usd: " << o.usdFile << '\n';
   if (!o.statsFile.empty()) out << "  stats: " << o.statsFile << '\n';
   if (!o.outDir.empty()) out << "  meshes: " << o.outDir << '\n';
   return 0;
@@ -535,6 +626,10 @@ int runCommandLine(const std::vector<std::string>& args, std::ostream& out, std:
     if (command == "bench") {
       if (help) return out << kBenchHelp, 0;
       return runBench(args, out, err);
+    }
+    if (command == "sweep") {
+      if (help) return out << kSweepHelp, 0;
+      return runSweep(args, out, err);
     }
     if (command == "ccd") {
       if (help) return out << kCcdHelp, 0;

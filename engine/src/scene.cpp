@@ -870,14 +870,18 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
   return scene;
 }
 
-Scene loadScene(const std::string& path) {
+std::string readSceneFile(const std::string& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw SceneError(path + ": no such scene file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw SceneError(path + ": cannot be read");
   std::stringstream buffer;
   buffer << in.rdbuf();
-  return parseScene(buffer.str(), path, fs::path(path).parent_path().string());
+  return buffer.str();
+}
+
+Scene loadScene(const std::string& path) {
+  return parseScene(readSceneFile(path), path, fs::path(path).parent_path().string());
 }
 
 World buildWorld(const Scene& scene) {

@@ -733,39 +733,44 @@ void holdImpactSubsteps(WorldState& s) {
 
 }  // namespace
 
+// The tables derived from the objects' topology (incidence, colouring, levels, collision
+// primitives, the sweep plan), rebuilt outside the step so that a step never allocates.
+void buildDerivedTablesIfDirty(WorldState& s) {
+  if (!s.topologyDirty) return;
+  const auto tablesStart = std::chrono::steady_clock::now();
+  buildDerivedTables(s.constraints, s.particles, fineSweepKind(s.solver));
+  buildCollisionPrimitives(s.primitives, s.objects, s.excludedObjectPairs, s.excludedVertexSets,
+                           s.particles.size());
+  // Pair indices name the new primitives: nothing the narrow phase kept of the old ones holds.
+  s.primitiveContacts.boundVersion = 0;
+  if (s.solver.kind == SolverKind::Multigrid) {
+    buildLevelHierarchies(s.hierarchies, s.objects, s.particles);
+    attachLevelTethers(s.hierarchies, s.constraints.tether, s.particles.size());
+    s.cascade.start.resize(s.particles.size());
+    s.cascade.limit.resize(s.hierarchies.coarseEdges);
+    s.cascade.held.resize(s.particles.size());
+  } else
+    s.hierarchies.objects.clear();
+  s.plan = buildSweepPlan(s.solver, s.objects, s.constraints, s.particles);
+  const LiquidPool& liquids = s.constraints.liquid;
+  s.contacts.extraReach.assign(liquids.size() > 0 ? s.particles.size() : 0, Real(0));
+  for (Index particle : liquids.particle)
+    s.contacts.extraReach[particle] = kLiquidContactReach * liquids.kernels.radius;
+  s.primitiveContacts.splitParticle.assign(liquids.size() > 0 ? s.particles.size() : 0, 0);
+  for (Index particle : liquids.particle) s.primitiveContacts.splitParticle[particle] = 1;
+  s.kinematicContactDistance = smallestKinematicContact(s.primitives, s.objects, s.kinematics);
+  s.objectEdgeLength = medianEdgeLengths(s.objects, s.particles);
+  s.topologyDirty = false;
+  s.profile.derivedTables +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - tablesStart).count();
+}
+
 void World::step(double dt) {
   require(std::isfinite(dt) && dt > 0 && dt <= 1,
           "time step must be finite and in (0, 1] seconds, got " + std::to_string(dt));
   Impl& impl = *impl_;
   WorldState& s = impl.state;
-  if (s.topologyDirty) {  // derived tables, rebuilt outside the step so a step never allocates
-    const auto tablesStart = std::chrono::steady_clock::now();
-    buildDerivedTables(s.constraints, s.particles, fineSweepKind(s.solver));
-    buildCollisionPrimitives(s.primitives, s.objects, s.excludedObjectPairs, s.excludedVertexSets,
-                             s.particles.size());
-    // Pair indices name the new primitives: nothing the narrow phase kept of the old ones holds.
-    s.primitiveContacts.boundVersion = 0;
-    if (s.solver.kind == SolverKind::Multigrid) {
-      buildLevelHierarchies(s.hierarchies, s.objects, s.particles);
-      attachLevelTethers(s.hierarchies, s.constraints.tether, s.particles.size());
-      s.cascade.start.resize(s.particles.size());
-      s.cascade.limit.resize(s.hierarchies.coarseEdges);
-      s.cascade.held.resize(s.particles.size());
-    } else
-      s.hierarchies.objects.clear();
-    s.plan = buildSweepPlan(s.solver, s.objects, s.constraints, s.particles);
-    const LiquidPool& liquids = s.constraints.liquid;
-    s.contacts.extraReach.assign(liquids.size() > 0 ? s.particles.size() : 0, Real(0));
-    for (Index particle : liquids.particle)
-      s.contacts.extraReach[particle] = kLiquidContactReach * liquids.kernels.radius;
-    s.primitiveContacts.splitParticle.assign(liquids.size() > 0 ? s.particles.size() : 0, 0);
-    for (Index particle : liquids.particle) s.primitiveContacts.splitParticle[particle] = 1;
-    s.kinematicContactDistance = smallestKinematicContact(s.primitives, s.objects, s.kinematics);
-    s.objectEdgeLength = medianEdgeLengths(s.objects, s.particles);
-    s.topologyDirty = false;
-    s.profile.derivedTables +=
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - tablesStart).count();
-  }
+  buildDerivedTablesIfDirty(s);
   if (!impl.arena) {
     const int concurrency = impl.threads > 0 ? impl.threads : int{tbb::task_arena::automatic};
     impl.arena = std::make_unique<tbb::task_arena>(concurrency);
@@ -809,6 +814,10 @@ void World::step(double dt) {
 
 double World::time() const {
   return impl_->state.time;
+}
+
+std::uint64_t World::steps() const {
+  return impl_->state.stepCount;
 }
 
 std::size_t World::particleCount() const {

@@ -90,6 +90,10 @@ struct WorldState {
   StepProfile profile;     // the engine's own per-stage timing
 };
 
+// Rebuilds the tables derived from the topology when it changed (world.cpp); every step calls it
+// first.
+void buildDerivedTablesIfDirty(WorldState& s);
+
 struct World::Impl {
   WorldState state;
   int threads = 0;

@@ -2,6 +2,7 @@
 // The format is documented in assets/scenes/README.md.
 #pragma once
 
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -71,6 +72,17 @@ struct Scene {
   };
   std::vector<VertexSets> excludedVertexSets;
 };
+
+// The scene's JSON text with settings changed: each override is "PATH=VALUE", PATH the keys down
+// to the setting joined by dots (a list's entries by number: "objects.0.material.friction") and
+// VALUE JSON ("10", "true", "[0, 1, 0]"; text that is not JSON is taken as a string:
+// "solver.kind=jacobi"). A key the file lacks is added and then checked by parseScene as any key
+// (an unknown one is refused). Throws SceneError, naming `label` and the override, for an override
+// without '=', an empty key, an index past a list's end or a key inside a number or string.
+std::string applySceneOverrides(const std::string& text, std::span<const std::string> overrides,
+                                const std::string& label);
+// A scene file's text (SceneError if it cannot be read).
+std::string readSceneFile(const std::string& path);
 
 // Reads and validates a scene file. Meshes named in it are looked up relative to the scene's
 // folder, then in <assets>/meshes. Throws SceneError.

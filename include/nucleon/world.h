@@ -83,6 +83,8 @@ class World {
   void step(double dt);
   // Simulated seconds since the world was created: the time motions' keyframes refer to.
   double time() const;
+  // Steps taken since the world was created (a checkpoint carries the count).
+  std::uint64_t steps() const;
 
   std::size_t particleCount() const;
   std::size_t objectCount() const;

@@ -1,0 +1,206 @@
+// Checkpoints (nucleon/checkpoint.h, `nucleon run --checkpoint-every / --resume`): a run stopped
+// at a checkpoint and resumed ends in the same state, bit for bit, as one that never stopped,
+// across the features whose state outlives a step (collision caches, animated colliders and
+// pins, gas, attachments, liquids, rigid bodies); a checkpoint for another scene, settings,
+// version or precision, or a damaged file, is refused and leaves the world as it was.
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "nucleon/checkpoint.h"
+#include "nucleon/scene.h"
+
+#include "engine/app/cli.h"
+#include "tests/scene_run.h"
+
+namespace nucleon {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string scenePath(const std::string& name) {
+  return std::string(NUCLEON_ASSETS_DIR) + "/scenes/" + name + ".json";
+}
+
+fs::path freshFolder(const std::string& name) {
+  const fs::path folder = fs::temp_directory_path() / ("nucleon_checkpoint_" + name);
+  fs::remove_all(folder);
+  return folder;
+}
+
+struct ResumeCase {
+  const char* scene;
+  int frames;
+  int checkpointAt;
+  bool collides;  // the resumed frames must have primitive or collider contacts
+};
+
+class ResumedRun : public ::testing::TestWithParam<ResumeCase> {};
+
+// The resumed run starts from the checkpoint alone (a new process would see only the file) and
+// must end on the uninterrupted run's state hash. Frames are chosen so that the resumed part has
+// the scene's feature at work: contacts carried from step to step, a collider or pins turning,
+// gas pumping, welds under load, a liquid splashing.
+TEST_P(ResumedRun, EndsInTheUninterruptedState) {
+  const ResumeCase c = GetParam();
+  const fs::path folder = freshFolder(c.scene);
+  const std::string frames = std::to_string(c.frames);
+  const test::SceneRun whole = test::runScene(
+      scenePath(c.scene),
+      {"--frames", frames, "--checkpoint-every", std::to_string(c.checkpointAt), folder.string()});
+  ASSERT_FALSE(whole.stats.is_null());
+  std::ostringstream file;
+  file << whole.stats.at("scene").get<std::string>() << '_' << std::setw(4) << std::setfill('0')
+       << c.checkpointAt << ".ckpt";
+  const fs::path checkpoint = folder / file.str();
+  ASSERT_TRUE(fs::exists(checkpoint)) << checkpoint;
+  const test::SceneRun resumed =
+      test::runScene(scenePath(c.scene), {"--frames", frames, "--resume", checkpoint.string()});
+  ASSERT_FALSE(resumed.stats.is_null());
+  EXPECT_EQ(resumed.stats.at("resumed_from_frame").get<int>(), c.checkpointAt);
+  EXPECT_EQ(resumed.stats.at("steps").get<int>(), c.frames - c.checkpointAt);
+  EXPECT_EQ(resumed.stats.at("state_hash"), whole.stats.at("state_hash")) << c.scene;
+  // The counters since creation come with the checkpoint: the resumed run reports the whole run's.
+  EXPECT_EQ(resumed.stats.at("collisions").at("contacts"),
+            whole.stats.at("collisions").at("contacts"));
+  EXPECT_EQ(resumed.stats.at("recoveries"), whole.stats.at("recoveries"));
+  if (c.collides) {
+    // Primitive contacts made after the checkpoint: the whole run's less those up to it.
+    const test::SceneRun head =
+        test::runScene(scenePath(c.scene), {"--frames", std::to_string(c.checkpointAt)});
+    ASSERT_FALSE(head.stats.is_null());
+    EXPECT_GT(whole.stats.at("collisions").at("contacts").get<std::uint64_t>(),
+              head.stats.at("collisions").at("contacts").get<std::uint64_t>())
+        << "the resumed frames of " << c.scene << " make no contacts";
+  }
+  fs::remove_all(folder);
+}
+
+INSTANTIATE_TEST_SUITE_P(Checkpoint, ResumedRun,
+                         ::testing::Values(ResumeCase{"cloth_hang", 12, 5, false},
+                                           ResumeCase{"cloth_self", 20, 14, true},
+                                           ResumeCase{"cloth_twist", 24, 11, true},
+                                           ResumeCase{"kinematic_spin", 20, 12, true},
+                                           ResumeCase{"balloon", 16, 9, false},
+                                           ResumeCase{"attachments", 16, 9, false},
+                                           ResumeCase{"rigid_on_cloth", 16, 9, true},
+                                           ResumeCase{"water_on_cloth", 12, 7, true}),
+                         [](const ::testing::TestParamInfo<ResumeCase>& info) {
+                           return std::string(info.param.scene);
+                         });
+
+// A checkpoint of cloth_hang at frame 4, written through the command line.
+fs::path hangCheckpoint(const fs::path& folder) {
+  std::ostringstream out, err;
+  EXPECT_EQ(runCommandLine({"run", scenePath("cloth_hang"), "--frames", "4", "--quiet",
+                            "--checkpoint-every", "4", folder.string()},
+                           out, err),
+            0)
+      << err.str();
+  return folder / "cloth_hang_0004.ckpt";
+}
+
+int resume(const std::vector<std::string>& args, std::string& error) {
+  std::ostringstream out, err;
+  const int code = runCommandLine(args, out, err);
+  error = err.str();
+  return code;
+}
+
+TEST(Checkpoint, CommandLineRefusesWhatDoesNotMatch) {
+  const fs::path folder = freshFolder("refusals");
+  const fs::path checkpoint = hangCheckpoint(folder);
+  ASSERT_TRUE(fs::exists(checkpoint));
+  std::string error;
+  // Other settings than the run that wrote it.
+  EXPECT_EQ(resume({"run", scenePath("cloth_hang"), "--quiet", "--substeps", "3", "--resume",
+                    checkpoint.string()},
+                   error),
+            2);
+  EXPECT_NE(error.find("another scene or settings"), std::string::npos) << error;
+  // Another scene.
+  EXPECT_EQ(resume({"run", scenePath("flag"), "--quiet", "--resume", checkpoint.string()}, error),
+            2);
+  EXPECT_NE(error.find("another scene"), std::string::npos) << error;
+  // A run no longer than the checkpoint.
+  EXPECT_EQ(resume({"run", scenePath("cloth_hang"), "--quiet", "--frames", "4", "--resume",
+                    checkpoint.string()},
+                   error),
+            2);
+  EXPECT_NE(error.find("at frame 4"), std::string::npos) << error;
+  // No such file, a file that is not a checkpoint, a truncated one.
+  EXPECT_EQ(resume({"run", scenePath("cloth_hang"), "--quiet", "--resume",
+                    (folder / "missing.ckpt").string()},
+                   error),
+            2);
+  const fs::path text = folder / "text.ckpt";
+  std::ofstream(text) << "{\"not\": \"a checkpoint\"}\n";
+  EXPECT_EQ(resume({"run", scenePath("cloth_hang"), "--quiet", "--resume", text.string()}, error),
+            2);
+  EXPECT_NE(error.find("not a nucleon checkpoint"), std::string::npos) << error;
+  const fs::path cut = folder / "cut.ckpt";
+  fs::copy_file(checkpoint, cut);
+  fs::resize_file(cut, fs::file_size(checkpoint) / 2);
+  EXPECT_EQ(resume({"run", scenePath("cloth_hang"), "--quiet", "--resume", cut.string()}, error),
+            2);
+  EXPECT_NE(error.find("ends early"), std::string::npos) << error;
+  // A tearable cloth's torn mesh is not held by checkpoints: refused before the run.
+  EXPECT_EQ(resume({"run", scenePath("tear"), "--quiet", "--frames", "2", "--checkpoint-every", "1",
+                    folder.string()},
+                   error),
+            2);
+  EXPECT_NE(error.find("tearable"), std::string::npos) << error;
+  fs::remove_all(folder);
+}
+
+// The library's own checks, on a checkpoint in memory: a changed version or precision field is
+// refused, and a refused checkpoint leaves the world's state as it was.
+TEST(Checkpoint, RefusedCheckpointLeavesTheWorldUnchanged) {
+  const Scene scene = loadScene(scenePath("cloth_hang"));
+  World written = buildWorld(scene);
+  for (int i = 0; i < 3; ++i) written.step(1.0 / 60);
+  std::ostringstream saved(std::ios::binary);
+  saveCheckpoint(written, saved, "label");
+  const std::string bytes = saved.str();
+
+  World world = buildWorld(scene);
+  world.step(1.0 / 60);
+  const std::uint64_t before = world.stateHash();
+  const auto refused = [&](std::string data, const std::string& label, const std::string& why) {
+    std::istringstream in(data, std::ios::binary);
+    try {
+      loadCheckpoint(world, in, label);
+      ADD_FAILURE() << "accepted: " << why;
+    } catch (const CheckpointError& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(world.stateHash(), before);
+    EXPECT_EQ(world.steps(), 1u);
+  };
+  refused(bytes, "other label", "another scene or settings");
+  const std::size_t version = bytes.find(NUCLEON_TEST_VERSION);
+  ASSERT_NE(version, std::string::npos);
+  std::string otherVersion = bytes;
+  otherVersion[version] = '9';
+  refused(otherVersion, "label", "written by nucleon 9");
+  // The precision field follows the version string.
+  std::string otherPrecision = bytes;
+  otherPrecision[version + std::string(NUCLEON_TEST_VERSION).size()] ^= 12;
+  refused(otherPrecision, "label", "precision");
+  refused(bytes.substr(0, bytes.size() - 3), "label", "ends early");
+
+  // The same bytes under the right label are taken, and the world goes on as the writer does.
+  std::istringstream in(bytes, std::ios::binary);
+  loadCheckpoint(world, in, "label");
+  EXPECT_EQ(world.steps(), 3u);
+  EXPECT_EQ(world.stateHash(), written.stateHash());
+  for (int i = 0; i < 3; ++i) written.step(1.0 / 60), world.step(1.0 / 60);
+  EXPECT_EQ(world.stateHash(), written.stateHash());
+}
+
+}  // namespace
+}  // namespace nucleon
