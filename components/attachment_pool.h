@@ -21,6 +21,10 @@ struct AttachmentPool {
   std::vector<Real> distance, compliance, strength;
   std::vector<double> lambda;
   std::vector<std::uint8_t> broken;
+  // Taken out by the host (World::removeAttachment, a drag let go): skipped like a broken one,
+  // but not a break.
+  std::vector<std::uint8_t> removed;
+  std::vector<std::uint8_t> drag;  // made by World::beginDrag: its target moves by moveDrag
   // PointToTransform: the track (in `tracks`) that poses the particle's rest position `rest`, and
   // where it puts it at the end of the current substep.
   std::vector<Index> track;

@@ -178,7 +178,7 @@ struct Snapshot {
   };
   std::vector<Track> tracks;
   std::vector<Vec3> kinematicTargets;
-  std::vector<std::uint8_t> broken;
+  std::vector<std::uint8_t> broken, removed;
   std::vector<double> attachmentLambda;
   std::uint64_t brokenCount = 0;
   std::vector<double> gas, pressureLambda;
@@ -259,6 +259,7 @@ void saveCheckpoint(const World& world, std::ostream& out, const std::string& la
   write.array(s.kinematics.target);
   const AttachmentPool& attachments = s.constraints.attachments;
   write.array(attachments.broken);
+  write.array(attachments.removed);
   write.array(attachments.lambda);
   write.pod(attachments.brokenCount);
   write.array(s.constraints.pressure.gas);
@@ -325,6 +326,7 @@ void loadCheckpoint(World& world, std::istream& in, const std::string& label) {
   snap.kinematicTargets = read.array<Vec3>(s.kinematics.target.size(), "kinematic targets");
   AttachmentPool& attachments = s.constraints.attachments;
   snap.broken = read.array<std::uint8_t>(attachments.broken.size(), "attachments");
+  snap.removed = read.array<std::uint8_t>(attachments.removed.size(), "attachments");
   snap.attachmentLambda = read.array<double>(attachments.lambda.size(), "attachments");
   snap.brokenCount = read.pod<std::uint64_t>();
   PressurePool& pressure = s.constraints.pressure;
@@ -373,6 +375,7 @@ void loadCheckpoint(World& world, std::istream& in, const std::string& label) {
   }
   s.kinematics.target = std::move(snap.kinematicTargets);
   attachments.broken = std::move(snap.broken);
+  attachments.removed = std::move(snap.removed);
   attachments.lambda = std::move(snap.attachmentLambda);
   attachments.brokenCount = snap.brokenCount;
   pressure.gas = std::move(snap.gas);

@@ -1115,6 +1115,8 @@ std::size_t World::addAttachment(const Attachment& a) {
   pool.strength.push_back(a.strength);
   pool.lambda.push_back(0);
   pool.broken.push_back(0);
+  pool.removed.push_back(0);
+  pool.drag.push_back(0);
   pool.rest.push_back(s.particles.restPosition[ids[0]]);
   pool.target.push_back(s.particles.x[ids[0]]);
   if (a.kind == AttachmentKind::PointToTransform) {
@@ -1159,6 +1161,111 @@ std::size_t World::weld(ObjectId a, ObjectId b, Real within, Real compliance, Re
 std::size_t World::attachmentCount() const {
   return impl_->state.constraints.attachments.size();
 }
+void World::removeAttachment(std::size_t index) {
+  AttachmentPool& pool = impl_->state.constraints.attachments;
+  require(index < pool.size(), "removeAttachment: attachment index out of range");
+  pool.removed[index] = 1;
+}
+
+std::size_t World::beginDrag(ObjectId id, Index vertex, const Vec3& point, Real compliance) {
+  const ObjectRecord& o = lookup(*impl_, id);
+  require(o.kind != ObjectKind::Collider, "beginDrag: '" + o.name + "' is a collider");
+  require(vertex < o.particleCount, "beginDrag: vertex " + std::to_string(vertex) +
+                                        " is out of range (the object has " +
+                                        std::to_string(o.particleCount) + ")");
+  require(point.allFinite(), "beginDrag: the point must be finite");
+  Attachment a;
+  a.kind = AttachmentKind::PointToTransform;
+  a.object = id;
+  a.vertex = vertex;
+  a.compliance = compliance;
+  // One keyframe: the rest position moved onto the point, held until moveDrag moves it.
+  const Vec3 rest = impl_->state.particles.restPosition[o.firstParticle + vertex];
+  Keyframe key;
+  key.translation = (point - rest).cast<double>();
+  a.motion.keyframes.push_back(key);
+  const std::size_t index = addAttachment(a);
+  impl_->state.constraints.attachments.drag[index] = 1;
+  return index;
+}
+
+void World::moveDrag(std::size_t drag, const Vec3& point) {
+  AttachmentPool& pool = impl_->state.constraints.attachments;
+  require(drag < pool.size() && pool.drag[drag] && !pool.removed[drag],
+          "moveDrag: not a drag in progress");
+  require(point.allFinite(), "moveDrag: the point must be finite");
+  pool.tracks[pool.track[drag]].translations[0] = (point - pool.rest[drag]).cast<double>();
+}
+
+void World::endDrag(std::size_t drag) {
+  AttachmentPool& pool = impl_->state.constraints.attachments;
+  require(drag < pool.size() && pool.drag[drag] && !pool.removed[drag],
+          "endDrag: not a drag in progress");
+  pool.removed[drag] = 1;
+}
+
+// A moved particle can leave the bounds the carried pairs were found for: the next step
+// searches afresh, as after a tear.
+static void dropCollisionCaches(WorldState& s) {
+  s.candidates.pathStart.clear();
+  s.primitiveContacts.boundVersion = 0;
+}
+
+void World::setPositions(ObjectId id, std::span<const Vec3> positions) {
+  const ObjectRecord& o = lookup(*impl_, id);
+  require(o.kind != ObjectKind::Collider,
+          "setPositions: '" + o.name + "' is a collider (setColliderTargets moves one)");
+  require(positions.size() == o.particleCount, "setPositions: " + std::to_string(positions.size()) +
+                                                   " positions for '" + o.name + "', which has " +
+                                                   std::to_string(o.particleCount) + " particles");
+  for (const Vec3& p : positions) require(p.allFinite(), "setPositions: a position is not finite");
+  ParticlePool& particles = impl_->state.particles;
+  std::copy(positions.begin(), positions.end(), particles.x.begin() + o.firstParticle);
+  std::copy(positions.begin(), positions.end(), particles.p.begin() + o.firstParticle);
+  dropCollisionCaches(impl_->state);
+}
+
+void World::setVelocities(ObjectId id, std::span<const Vec3> velocities) {
+  const ObjectRecord& o = lookup(*impl_, id);
+  require(o.kind != ObjectKind::Collider, "setVelocities: '" + o.name + "' is a collider");
+  require(velocities.size() == o.particleCount,
+          "setVelocities: " + std::to_string(velocities.size()) + " velocities for '" + o.name +
+              "', which has " + std::to_string(o.particleCount) + " particles");
+  for (const Vec3& v : velocities)
+    require(v.allFinite(), "setVelocities: a velocity is not finite");
+  std::copy(velocities.begin(), velocities.end(),
+            impl_->state.particles.v.begin() + o.firstParticle);
+  dropCollisionCaches(impl_->state);
+}
+
+void World::applyImpulse(ObjectId id, Index vertex, const Vec3& impulse) {
+  const ObjectRecord& o = lookup(*impl_, id);
+  require(vertex < o.particleCount, "applyImpulse: vertex " + std::to_string(vertex) +
+                                        " is out of range (the object has " +
+                                        std::to_string(o.particleCount) + ")");
+  require(impulse.allFinite(), "applyImpulse: the impulse must be finite");
+  ParticlePool& particles = impl_->state.particles;
+  const Index i = o.firstParticle + vertex;
+  particles.v[i] += particles.w[i] * impulse;  // Δv = J / m; nothing for a pinned particle
+  dropCollisionCaches(impl_->state);
+}
+
+void World::applyImpulse(ObjectId id, const Vec3& impulse) {
+  const ObjectRecord& o = lookup(*impl_, id);
+  require(impulse.allFinite(), "applyImpulse: the impulse must be finite");
+  ParticlePool& particles = impl_->state.particles;
+  // Spread over the free particles in proportion to their mass: every one gains J / M, so the
+  // object's momentum grows by J and it does not deform.
+  double mass = 0;
+  for (Index k = 0; k < o.particleCount; ++k)
+    if (const Real w = particles.w[o.firstParticle + k]; w > 0) mass += 1 / double(w);
+  if (!(mass > 0)) return;
+  const Vec3 dv = (impulse.cast<double>() / mass).cast<Real>();
+  for (Index k = 0; k < o.particleCount; ++k)
+    if (particles.w[o.firstParticle + k] > 0) particles.v[o.firstParticle + k] += dv;
+  dropCollisionCaches(impl_->state);
+}
+
 bool World::attachmentBroken(std::size_t index) const {
   require(index < impl_->state.constraints.attachments.size(), "attachment index out of range");
   return impl_->state.constraints.attachments.broken[index] != 0;

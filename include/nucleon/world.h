@@ -170,6 +170,29 @@ class World {
   std::size_t weld(ObjectId a, ObjectId b, Real within, Real compliance = 0, Real strength = 0,
                    Real distance = 0);
   std::size_t attachmentCount() const;
+  // Takes attachment `index` out for good (skipped from the next step on; not counted as broken).
+  void removeAttachment(std::size_t index);
+
+  // Game-loop control, between steps (examples/game_loop.cpp). Each throws std::invalid_argument
+  // on an invalid id, an index out of range, a wrong count or a non-finite value, and changes
+  // nothing then.
+  //
+  // A drag holds a particle to a point the host moves (a mouse): a PointToTransform attachment
+  // with `compliance` (m/N; the default lets a 1 kg pull stretch it about 1 cm per 100 N), whose
+  // target moveDrag sets for the coming steps; endDrag lets go. beginDrag returns the drag's
+  // attachment index. Colliders cannot be dragged.
+  std::size_t beginDrag(ObjectId id, Index vertex, const Vec3& point, Real compliance = Real(1e-4));
+  void moveDrag(std::size_t drag, const Vec3& point);
+  void endDrag(std::size_t drag);
+  // Sets an object's positions (x and the prediction p, a teleport: velocities are kept) or
+  // velocities, one per particle in its vertex order; not for colliders (setColliderTargets).
+  // The collision caches are dropped: the next step searches for pairs afresh.
+  void setPositions(ObjectId id, std::span<const Vec3> positions);
+  void setVelocities(ObjectId id, std::span<const Vec3> velocities);
+  // An impulse J (N·s) on one particle (Δv = w J: none on a pinned one), or on a whole object,
+  // shared by its free particles in proportion to their mass (each gains J / M).
+  void applyImpulse(ObjectId id, Index vertex, const Vec3& impulse);
+  void applyImpulse(ObjectId id, const Vec3& impulse);
   bool attachmentBroken(std::size_t index) const;
   std::size_t brokenAttachments() const;
   const StepProfile& profile() const;

@@ -18,7 +18,7 @@ void projectAttachments(AttachmentPool& pool, ParticlePool& particles, Real h,
                         const std::uint8_t* objectRuns) {
   const double h2 = double(h) * double(h);
   for (std::size_t i = 0; i < pool.size(); ++i) {
-    if (pool.broken[i]) continue;
+    if (pool.broken[i] || pool.removed[i]) continue;
     const auto& ids = pool.particles[i];
     if (objectRuns && !objectRuns[particles.phase[ids[0]]]) continue;
     const AttachmentKind kind = pool.kind[i];
@@ -78,7 +78,7 @@ std::size_t breakAttachments(AttachmentPool& pool, Real h) {
   const double h2 = double(h) * double(h);
   std::size_t broke = 0;
   for (std::size_t i = 0; i < pool.size(); ++i) {
-    if (pool.broken[i] || !(pool.strength[i] > 0)) continue;
+    if (pool.broken[i] || pool.removed[i] || !(pool.strength[i] > 0)) continue;
     if (std::abs(pool.lambda[i]) / h2 > double(pool.strength[i])) {
       pool.broken[i] = 1;
       ++broke;
