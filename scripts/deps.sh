@@ -11,6 +11,7 @@ packages=(
   libgtest-dev libbenchmark-dev
   nlohmann-json3-dev libtinyobjloader-dev libstb-dev
   parallel
+  pybind11-dev python3-dev python3-numpy python3-pytest
 )
 if [[ "${1:-}" == "bench" ]]; then
   packages+=(libbullet-dev gnuplot-nox)
