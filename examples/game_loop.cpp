@@ -51,7 +51,8 @@ int main(int argc, char** argv) {
   const Vec3 centre = world.positions(cloth)[corner] + Vec3(0, -0.3f, 0);
   const auto onCircle = [&](double t) {
     const double a = 2 * std::numbers::pi * t;
-    return Vec3(centre + 0.25f * Vec3(float(std::cos(a)), 0, float(std::sin(a))));
+    return Vec3(centre + nucleon::Real(0.25) *
+                             Vec3(nucleon::Real(std::cos(a)), 0, nucleon::Real(std::sin(a))));
   };
   const std::size_t drag = world.beginDrag(cloth, corner, onCircle(0));
   double worstLag = 0;

@@ -12,6 +12,7 @@ packages=(
   nlohmann-json3-dev libtinyobjloader-dev libstb-dev
   parallel
   pybind11-dev python3-dev python3-numpy python3-pytest
+  libglfw3-dev libimgui-dev xvfb xauth libgl1-mesa-dri
 )
 if [[ "${1:-}" == "bench" ]]; then
   packages+=(libbullet-dev gnuplot-nox)

@@ -3,6 +3,7 @@
 #include "engine/app/ccd_command.h"
 #include "engine/app/cli_args.h"
 #include "engine/app/sweep_command.h"
+#include "engine/app/view_command.h"
 
 #include <unistd.h>
 
@@ -49,6 +50,7 @@ const char* kUsage =
     "       nucleon sweep SCENE.json --set KEY=V1,V2,.. [--set ..] [--frames N] [--threads T]\n"
     "                              [--jobs J] [--out DIR] [--csv FILE] [--emit]\n"
     "       nucleon sweep --gather DIR [--csv FILE]\n"
+    "       nucleon view SCENE.json [--frames N --screenshot FILE.png] [--size WxH]\n"
     "       nucleon bench SCENE|NAME ... [--threads 1,2,..] [--solver a,b] [--iterations K]\n"
     "                              [--steps N] [--warmup W] [--repeats R] [--csv FILE]\n"
     "                              [--lanes avx2,avx512]\n"
@@ -626,6 +628,10 @@ int runCommandLine(const std::vector<std::string>& args, std::ostream& out, std:
     if (command == "bench") {
       if (help) return out << kBenchHelp, 0;
       return runBench(args, out, err);
+    }
+    if (command == "view") {
+      if (help) return out << kViewHelp, 0;
+      return runView(args, out, err);
     }
     if (command == "sweep") {
       if (help) return out << kSweepHelp, 0;

@@ -75,6 +75,11 @@ void renderPng(const World& world, const std::string& path, const RenderSettings
   const float extent = std::max((hi - lo).norm(), 1e-3f);
 
   std::vector<Vec3f> albedo;  // by geometry id
+  // Smooth shading of the triangle meshes, by geometry id (empty for curves, points, ground):
+  // each vertex's normal is the sum of its triangles' area vectors, interpolated at a hit with
+  // Embree's barycentric coordinates.
+  std::vector<std::vector<Vec3f>> vertexNormals;
+  std::vector<std::vector<std::array<unsigned, 3>>> meshTriangles;
   for (std::size_t o = 0; o < world.objectCount(); ++o) {
     const ObjectId id = world.objectAt(o);
     const auto x = world.positions(id);
@@ -90,6 +95,16 @@ void renderPng(const World& world, const std::string& path, const RenderSettings
                                                world.surfaceTriangles(id).end());
         if (t.empty()) continue;
         addTriangles(device.get(), scene.get(), v, t, geomId);
+        vertexNormals.resize(geomId + 1), meshTriangles.resize(geomId + 1);
+        std::vector<Vec3f>& normals = vertexNormals[geomId];
+        normals.assign(v.size(), Vec3f::Zero());
+        for (const auto& tri : t) {
+          const Vec3f n = (v[tri[1]] - v[tri[0]]).cross(v[tri[2]] - v[tri[0]]);
+          for (unsigned k : tri) normals[k] += n;
+        }
+        for (Vec3f& n : normals)
+          if (const float length = n.norm(); length > 0) n /= length;
+        meshTriangles[geomId] = std::move(t);
         break;
       }
       case ObjectKind::Rope: {
@@ -184,6 +199,16 @@ void renderPng(const World& world, const std::string& path, const RenderSettings
         } else {
           Vec3f n = Vec3f(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z).normalized();
           if (n.dot(dir) > 0) n = -n;  // two-sided: cloth is seen from both sides
+          Vec3f shading = n;
+          if (rh.hit.geomID < vertexNormals.size() && !vertexNormals[rh.hit.geomID].empty()) {
+            const auto& tri = meshTriangles[rh.hit.geomID][rh.hit.primID];
+            const auto& normals = vertexNormals[rh.hit.geomID];
+            const Vec3f smooth = (1 - rh.hit.u - rh.hit.v) * normals[tri[0]] +
+                                 rh.hit.u * normals[tri[1]] + rh.hit.v * normals[tri[2]];
+            // On the side the ray sees, like the geometric normal.
+            if (smooth.squaredNorm() > 0)
+              shading = smooth.dot(n) < 0 ? -smooth.normalized() : smooth.normalized();
+          }
           const Vec3f hit = eye + rh.ray.tfar * dir;
           Vec3f base = albedo[rh.hit.geomID];
           if (rh.hit.geomID == groundId) {
@@ -201,7 +226,7 @@ void renderPng(const World& world, const std::string& path, const RenderSettings
           rtcInitIntersectContext(&context);
           rtcOccluded1(scene.get(), &context, &shadow);
           const bool lit = shadow.tfar >= 0;  // Embree sets tfar = −inf when occluded
-          const float diffuse = lit ? std::max(n.dot(light), 0.0f) : 0.0f;
+          const float diffuse = lit ? std::max(shading.dot(light), 0.0f) : 0.0f;
           color = base * (0.3f + 0.7f * diffuse);
           const float fog = std::min(1.0f, rh.ray.tfar / (30 * extent));
           color = (1 - fog) * color + fog * Vec3f(0.7f, 0.75f, 0.8f);
