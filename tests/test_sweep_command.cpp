@@ -1,4 +1,4 @@
-// `nucleon run --set` and `nucleon sweep`'s input checks. The sweep's runs themselves (separate
+// `nucleon run --set`, and the input checks of `nucleon sweep` and `nucleon view`. The sweep's runs themselves (separate
 // processes, GNU parallel) are tested by tests/scripts/sweep_parallel.sh.
 #include <filesystem>
 #include <sstream>
@@ -85,6 +85,23 @@ TEST(SweepCommand, RefusesBadInputBeforeWritingAnything) {
   EXPECT_EQ(command({"sweep", "--gather", dir.string()}, error), 2);
   EXPECT_NE(error.find("runs.csv"), std::string::npos) << error;
   EXPECT_EQ(command({"sweep", "--gather", dir.string(), hangScene()}, error), 2);
+}
+
+// `nucleon view` checks its input before it opens a window (the window itself is tested under
+// Xvfb by tests/scripts/viewer_screenshot.sh).
+TEST(ViewCommand, RefusesBadInputBeforeOpeningAWindow) {
+  std::string error;
+  EXPECT_EQ(command({"view"}, error), 2);
+  EXPECT_NE(error.find("scene"), std::string::npos) << error;
+  EXPECT_EQ(command({"view", hangScene(), "--screenshot", "x.png"}, error), 2);
+  EXPECT_NE(error.find("--frames"), std::string::npos) << error;
+  EXPECT_EQ(command({"view", hangScene(), "--size", "big"}, error), 2);
+  EXPECT_EQ(command({"view", hangScene(), "--frames", "3", "--screenshot", "/no/such/dir/x.png"},
+                    error),
+            2);
+  EXPECT_NE(error.find("does not exist"), std::string::npos) << error;
+  EXPECT_EQ(command({"view", "/no/such/scene.json"}, error), 2);
+  EXPECT_EQ(command({"view", hangScene(), "--set", "solver.sweeps=3"}, error), 2);
 }
 
 }  // namespace
