@@ -250,6 +250,18 @@ PYBIND11_MODULE(nucleon, m) {
             return d;
           },
           "Seconds spent per stage since the world was made (StepProfile).")
+      .def(
+          "contact_points",
+          [](const PyWorld& w) {
+            std::vector<Vec3> points;
+            w.world.contactPoints(points);
+            py::array_t<Real> array({static_cast<py::ssize_t>(points.size()), py::ssize_t{3}});
+            if (!points.empty())
+              std::memcpy(array.mutable_data(), points.data()->data(),
+                          points.size() * sizeof(Vec3));
+            return array;
+          },
+          "Where the last substep's contacts pressed, an (M, 3) array (a copy).")
       .def("state_hash", [](const PyWorld& w) { return w.world.stateHash(); })
       .def(
           "save_checkpoint",

@@ -119,5 +119,28 @@ TEST(GameLoop, SetPositionsAndVelocitiesTakeEffectInTheNextStep) {
   EXPECT_EQ(s.world.recoveries().total(), 0u);
 }
 
+// The pressed contacts the viewer draws: none in free fall; on a sphere, points on its surface
+// (within the contact distance).
+TEST(GameLoop, ContactPointsLieWhereTheContactsPress) {
+  World world;
+  GridSpec spec;
+  spec.resolution = {16, 16};
+  spec.size = {1, 1};
+  spec.center = Vec3(0, Real(0.55), 0);
+  world.addCloth(gridCloth(spec));
+  SphereCollider sphere;
+  sphere.center = Vec3::Zero();
+  sphere.radius = Real(0.5);
+  world.addSphereCollider(sphere);
+  std::vector<Vec3> points;
+  world.step(1.0 / 60);
+  world.contactPoints(points);
+  EXPECT_TRUE(points.empty());  // 5 cm above the sphere, after one step of falling
+  for (int i = 0; i < 30; ++i) world.step(1.0 / 60);
+  world.contactPoints(points);
+  ASSERT_FALSE(points.empty());
+  for (const Vec3& p : points) EXPECT_NEAR(p.norm(), 0.5, 0.02) << p.transpose();
+}
+
 }  // namespace
 }  // namespace nucleon

@@ -451,6 +451,8 @@ int runWindow(const ViewOptions& o, const Scene& scene, std::ostream& out, std::
       ImGui::Checkbox("colliders", &draw.colliders);
       ImGui::SameLine();
       ImGui::Checkbox("ground", &draw.ground);
+      ImGui::SameLine();
+      ImGui::Checkbox("contacts", &draw.contacts);
       if (draw.strainColours) ImGui::SliderFloat("red at strain", &draw.strainScale, 0.005f, 0.5f);
       std::vector<float> values(msHistory.begin(), msHistory.end());
       ImGui::PlotLines("ms/step", values.data(), int(values.size()), 0, nullptr, 0, FLT_MAX,

@@ -1371,6 +1371,22 @@ void World::excludeCollisions(ObjectId a, std::span<const Index> verticesA, Obje
   s.topologyDirty = true;
 }
 
+void World::contactPoints(std::vector<Vec3>& out) const {
+  const WorldState& s = impl_->state;
+  out.clear();
+  for (std::size_t c = 0; c < s.contacts.size(); ++c)
+    if (s.contacts.lambda[c] > 0) out.push_back(s.particles.x[s.contacts.particle[c]]);
+  const PrimitiveContactPool& primitive = s.primitiveContacts;
+  for (std::size_t c = 0; c < primitive.size(); ++c) {
+    if (!(primitive.lambda[c] > 0)) continue;
+    Vec3 point = Vec3::Zero();
+    for (int k = 0; k < 4; ++k)
+      if (primitive.coefficient[c][k] > 0)
+        point += primitive.coefficient[c][k] * s.particles.x[primitive.particles[c][k]];
+    out.push_back(point);
+  }
+}
+
 const StepProfile& World::profile() const {
   return impl_->state.profile;
 }

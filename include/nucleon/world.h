@@ -195,6 +195,10 @@ class World {
   void applyImpulse(ObjectId id, const Vec3& impulse);
   bool attachmentBroken(std::size_t index) const;
   std::size_t brokenAttachments() const;
+  // Where the last substep's contacts pressed (a multiplier above zero), for display: a collider
+  // contact at its particle, a contact between primitives at the point of its first primitive
+  // (Σ c_k x_k over its positive coefficients). Appended to `out` after clearing it.
+  void contactPoints(std::vector<Vec3>& out) const;
   const StepProfile& profile() const;
   void resetProfile();
   // 64-bit FNV-1a hash of every particle's position and velocity bytes.

@@ -184,6 +184,8 @@ void GlRenderer::draw(const SceneSnapshot& scene, const Camera& camera, int widt
     if (o.triangles.empty() && o.edges.empty())
       for (Index v = 0; v < o.x.size(); ++v) push(points_, o.x[v], Vec3::UnitY(), colour(v));
   }
+  if (options.contacts)
+    for (const Vec3& p : scene.contactPoints) push(points_, p, Vec3::UnitY(), {0.2f, 0.95f, 0.3f});
   if (options.colliders)
     for (const SphereCollider& sphere : scene.spheres) {
       const ObjectDef ball = icosphere(sphere.center, sphere.radius, 3);

@@ -22,6 +22,7 @@ struct Camera {
 
 struct DrawOptions {
   bool strainColours = false;
+  bool contacts = false;  // the pressed contacts as green points
   bool colliders = true;
   bool ground = true;
   float strainScale = 0.05f;  // strain drawn fully red

@@ -38,6 +38,7 @@ void takeSnapshot(const World& world, const std::vector<std::vector<Vec3>>& rest
     for (const auto& t : o.triangles) edge(t[0], t[1]), edge(t[1], t[2]), edge(t[2], t[0]);
     for (const auto& e : o.edges) edge(e[0], e[1]);
   }
+  world.contactPoints(out.contactPoints);
   const auto spheres = world.sphereColliders();
   out.spheres.assign(spheres.begin(), spheres.end());
   out.ground = world.ground();

@@ -32,6 +32,7 @@ struct SceneSnapshot {
   double time = 0;
   std::vector<ObjectSnapshot> objects;
   std::vector<SphereCollider> spheres;
+  std::vector<Vec3> contactPoints;  // World::contactPoints
   GroundPlane ground;
   double stepMs = 0;
   StageTimes stages;
