@@ -95,6 +95,29 @@ struct ConstraintPool : ConstraintSettings<N>, BuiltinSolveState<N> {
     apply(this->lambda);
   }
 
+  // Keeps the constraints c for which keep(c) holds, in their order (a tear or a removed object
+  // takes constraints out; the derived tables are rebuilt afterwards).
+  template <class Keep>
+  void retain(Keep keep) {
+    std::size_t kept = 0;
+    for (std::size_t c = 0; c < size(); ++c) {
+      if (!keep(c)) continue;
+      this->particles[kept] = this->particles[c];
+      this->rest[kept] = this->rest[c];
+      this->compliance[kept] = this->compliance[c];
+      this->compressionCompliance[kept] = this->compressionCompliance[c];
+      this->damping[kept] = this->damping[c];
+      this->lambda[kept] = this->lambda[c];
+      ++kept;
+    }
+    this->particles.resize(kept);
+    this->rest.resize(kept);
+    this->compliance.resize(kept);
+    this->compressionCompliance.resize(kept);
+    this->damping.resize(kept);
+    this->lambda.resize(kept);
+  }
+
   void append(const std::array<Index, N>& p, Real restValue, Real alpha, Real alphaCompression,
               Real dampingTime) {
     this->particles.push_back(p);

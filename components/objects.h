@@ -15,7 +15,7 @@ namespace nucleon {
 struct ObjectRecord {
   std::string name;
   ObjectKind kind = ObjectKind::Particles;
-  std::uint32_t generation = 1;
+  Index slot = 0;           // its handle's entry in the slot table (ObjectId::index1 − 1)
   Index firstParticle = 0;  // the object's particles are [firstParticle, firstParticle + count)
   Index particleCount = 0;
   Material material;
@@ -25,6 +25,15 @@ struct ObjectRecord {
   double restVolume = 0;                      // enclosed volume in the rest shape
   Schedule schedule;                          // empty: the world's
   TearState tear;                             // tearable cloth only (Material::tear)
+};
+
+// An entry of the slot table behind ObjectId (index1 − 1): the object it names now (its index in
+// the object table, which stays dense), or kNoObject once that object is removed. Removal counts
+// the generation up, so an id of a removed object never names the object a reused slot gets.
+struct ObjectSlot {
+  static constexpr Index kNoObject = ~Index{0};
+  Index object = kNoObject;
+  std::uint32_t generation = 1;
 };
 
 }  // namespace nucleon

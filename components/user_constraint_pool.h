@@ -22,6 +22,30 @@ struct UserConstraintPool : UserConstraintSettings, ConstraintSolveState {
   Index particle(std::size_t c, std::size_t k) const { return particles[c * family.arity + k]; }
   const Real* restOf(std::size_t c) const { return rest.data() + c * family.restSize; }
 
+  // Keeps the constraints c for which keep(c) holds, in their order.
+  template <class Keep>
+  void retain(Keep keep) {
+    const std::size_t arity = family.arity, restSize = family.restSize;
+    std::size_t kept = 0;
+    for (std::size_t c = 0; c < size(); ++c) {
+      if (!keep(c)) continue;
+      for (std::size_t j = 0; j < arity; ++j)
+        particles[kept * arity + j] = particles[c * arity + j];
+      for (std::size_t j = 0; j < restSize; ++j) rest[kept * restSize + j] = rest[c * restSize + j];
+      compliance[kept] = compliance[c];
+      compressionCompliance[kept] = compressionCompliance[c];
+      damping[kept] = damping[c];
+      lambda[kept] = lambda[c];
+      ++kept;
+    }
+    particles.resize(kept * arity);
+    rest.resize(kept * restSize);
+    compliance.resize(kept);
+    compressionCompliance.resize(kept);
+    damping.resize(kept);
+    lambda.resize(kept);
+  }
+
   // Reorders the constraints so that the one at order[k] moves to k (colored Gauss–Seidel stores
   // a pool in color order).
   void permute(const std::vector<Index>& order) {

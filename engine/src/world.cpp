@@ -28,6 +28,7 @@
 #include "systems/solver/attachments.h"
 #include "systems/solver/pressure.h"
 #include "systems/solver/shape_matching.h"
+#include "systems/topology/remove_object.h"
 #include "systems/topology/tear_cloth.h"
 
 namespace nucleon {
@@ -480,9 +481,19 @@ static ObjectId addObject(World::Impl& impl, const ObjectDef& def, ObjectKind ki
   appendObjectConstraints(s.constraints, kind, c, def.vertices, held, first, def.material);
   record.schedule = def.schedule;
 
+  // A slot freed by a removal is reused (its generation already counted up), else a new one.
+  if (s.freeObjectSlots.empty()) {
+    record.slot = static_cast<Index>(s.objectSlots.size());
+    s.objectSlots.emplace_back();
+  } else {
+    record.slot = s.freeObjectSlots.back();
+    s.freeObjectSlots.pop_back();
+  }
+  ObjectSlot& slot = s.objectSlots[record.slot];
+  slot.object = static_cast<Index>(s.objects.size());
   s.objects.push_back(std::move(record));
   s.topologyDirty = true;
-  return ObjectId{static_cast<std::uint32_t>(s.objects.size()), s.objects.back().generation};
+  return ObjectId{s.objects.back().slot + 1, slot.generation};
 }
 
 ObjectId World::addCloth(const ObjectDef& def) {
@@ -836,11 +847,18 @@ std::span<const Real> World::inverseMasses() const {
   return impl_->state.particles.w;
 }
 
-static const ObjectRecord& lookup(const World::Impl& impl, ObjectId id) {
-  if (!id.valid() || id.index1 > impl.state.objects.size() ||
-      impl.state.objects[id.index1 - 1].generation != id.generation)
+// The object table's index of the object `id` names; throws for a null id, one this world never
+// gave, and one of a removed object.
+static Index objectIndex(const World::Impl& impl, ObjectId id) {
+  const std::vector<ObjectSlot>& slots = impl.state.objectSlots;
+  if (!id.valid() || id.index1 > slots.size() || slots[id.index1 - 1].generation != id.generation ||
+      slots[id.index1 - 1].object == ObjectSlot::kNoObject)
     throw std::invalid_argument("invalid object id");
-  return impl.state.objects[id.index1 - 1];
+  return slots[id.index1 - 1].object;
+}
+
+static const ObjectRecord& lookup(const World::Impl& impl, ObjectId id) {
+  return impl.state.objects[objectIndex(impl, id)];
 }
 
 void World::setColliderTargets(ObjectId id, std::span<const Vec3> positions) {
@@ -854,7 +872,7 @@ void World::setColliderTargets(ObjectId id, std::span<const Vec3> positions) {
     require(finite(positions[i]) && positions[i].cwiseAbs().maxCoeff() < 1e9,
             "setColliderTargets: " + what + ": position " + std::to_string(i) + " is not finite");
   KinematicTracks& kinematics = impl_->state.kinematics;
-  const Index object = id.index1 - 1;
+  const Index object = objectIndex(*impl_, id);
   auto track = std::find_if(kinematics.tracks.begin(), kinematics.tracks.end(),
                             [&](const KinematicTrack& t) { return t.object == object; });
   if (track == kinematics.tracks.end()) {
@@ -886,7 +904,8 @@ ObjectKind World::kind(ObjectId id) const {
 }
 ObjectId World::objectAt(std::size_t index) const {
   if (index >= impl_->state.objects.size()) throw std::out_of_range("object index out of range");
-  return ObjectId{static_cast<std::uint32_t>(index + 1), impl_->state.objects[index].generation};
+  const Index slot = impl_->state.objects[index].slot;
+  return ObjectId{slot + 1, impl_->state.objectSlots[slot].generation};
 }
 std::span<const std::array<Index, 3>> World::surfaceTriangles(ObjectId id) const {
   return lookup(*impl_, id).surface;
@@ -1121,7 +1140,7 @@ std::size_t World::addAttachment(const Attachment& a) {
   pool.target.push_back(s.particles.x[ids[0]]);
   if (a.kind == AttachmentKind::PointToTransform) {
     pool.track.push_back(static_cast<Index>(pool.tracks.size()));
-    pool.tracks.push_back(makeTrack(a.motion, a.object.index1 - 1, ids[0], 1));
+    pool.tracks.push_back(makeTrack(a.motion, objectIndex(*impl_, a.object), ids[0], 1));
   } else {
     pool.track.push_back(0);
   }
@@ -1266,6 +1285,35 @@ void World::applyImpulse(ObjectId id, const Vec3& impulse) {
   dropCollisionCaches(impl_->state);
 }
 
+std::size_t World::removeObject(ObjectId id) {
+  WorldState& s = impl_->state;
+  const Index object = objectIndex(*impl_, id);
+  const ObjectRecord& record = s.objects[object];
+  const ObjectRemoval removal{object, record.firstParticle,
+                              record.particleCount + record.tear.spareParticles};
+  s.tearReport.spareParticles -= record.tear.spareParticles;
+  ObjectSlot& slot = s.objectSlots[record.slot];
+  slot.object = ObjectSlot::kNoObject;
+  ++slot.generation;
+  s.freeObjectSlots.push_back(record.slot);
+  s.objects.erase(s.objects.begin() + object);
+  for (Index o = object; o < s.objects.size(); ++o) {
+    s.objects[o].firstParticle -= removal.particleCount;
+    s.objectSlots[s.objects[o].slot].object = o;
+  }
+  removeParticles(s.particles, removal);
+  const std::size_t detached = removeObjectConstraints(s.constraints, s.objects, removal);
+  removeObjectTracks(s.kinematics, removal);
+  removeObjectExclusions(s.excludedObjectPairs, s.excludedVertexSets, removal);
+  // The contacts and the broad phase's pairs name particles and primitives by their old indices.
+  s.contacts.resize(0);
+  s.primitiveContacts.resize(0);
+  s.candidates.clear();
+  dropCollisionCaches(s);
+  s.topologyDirty = true;
+  return detached;
+}
+
 bool World::attachmentBroken(std::size_t index) const {
   require(index < impl_->state.constraints.attachments.size(), "attachment index out of range");
   return impl_->state.constraints.attachments.broken[index] != 0;
@@ -1276,10 +1324,10 @@ std::size_t World::brokenAttachments() const {
 
 PressureReading World::pressure(ObjectId id) const {
   const WorldState& s = impl_->state;
-  lookup(*impl_, id);
+  const Index object = objectIndex(*impl_, id);
   const PressurePool& pool = s.constraints.pressure;
   for (std::size_t k = 0; k < pool.size(); ++k) {
-    if (pool.object[k] != id.index1 - 1) continue;
+    if (pool.object[k] != object) continue;
     PressureReading reading;
     reading.volume = pressureVolume(pool, k, s.particles.x);
     reading.restVolume = pool.restVolume[k];
@@ -1296,7 +1344,7 @@ PressureReading World::pressure(ObjectId id) const {
     }
     return reading;
   }
-  throw std::invalid_argument("object '" + s.objects[id.index1 - 1].name + "' has no pressure");
+  throw std::invalid_argument("object '" + s.objects[object].name + "' has no pressure");
 }
 
 bool World::isLiquid(ObjectId id) const {
@@ -1307,8 +1355,9 @@ LiquidReading World::liquid(ObjectId id) const {
   const WorldState& s = impl_->state;
   const ObjectRecord& record = lookup(*impl_, id);
   const LiquidPool& pool = s.constraints.liquid;
-  const auto entry = std::find_if(pool.objects.begin(), pool.objects.end(),
-                                  [&](const auto& o) { return o.object == id.index1 - 1; });
+  const auto entry = std::find_if(pool.objects.begin(), pool.objects.end(), [&](const auto& o) {
+    return o.object == objectIndex(*impl_, id);
+  });
   if (!record.material.liquid.enabled || entry == pool.objects.end())
     throw std::invalid_argument("object '" + record.name + "' is not a liquid");
   LiquidReading out;
@@ -1346,9 +1395,8 @@ const CollisionReport& World::collisionReport() const {
 }
 
 void World::excludeCollisions(ObjectId a, ObjectId b) {
-  lookup(*impl_, a), lookup(*impl_, b);  // both must be valid
   impl_->state.excludedObjectPairs.push_back(
-      CollisionPrimitives::pairKey(a.index1 - 1, b.index1 - 1));
+      CollisionPrimitives::pairKey(objectIndex(*impl_, a), objectIndex(*impl_, b)));
   impl_->state.topologyDirty = true;
 }
 

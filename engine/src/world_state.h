@@ -41,6 +41,10 @@ struct WorldState {
   ParticlePool particles;
   ConstraintPools constraints;
   std::vector<ObjectRecord> objects;
+  // The handles' slots (ObjectSlot), and the slots free for reuse since their objects were
+  // removed.
+  std::vector<ObjectSlot> objectSlots;
+  std::vector<Index> freeObjectSlots;
   Vec3 gravity = Vec3(0, Real(-9.81), 0);
   SolverSettings solver;
   // The colliders as the API defined them; `colliders` is the solver's list built from them.

@@ -87,7 +87,7 @@ class World {
   std::uint64_t steps() const;
 
   std::size_t particleCount() const;
-  std::size_t objectCount() const;
+  std::size_t objectCount() const;  // objects in the world now (removed ones not counted)
   std::span<const Vec3> positions() const;  // all particles, a view into the pool
   std::span<const Vec3> velocities() const;
   std::span<const Real> inverseMasses() const;
@@ -193,6 +193,13 @@ class World {
   // shared by its free particles in proportion to their mass (each gains J / M).
   void applyImpulse(ObjectId id, Index vertex, const Vec3& impulse);
   void applyImpulse(ObjectId id, const Vec3& impulse);
+  // Takes an object out of the world for good: its particles, constraints, tracks and collision
+  // exclusions go, every other object keeps its id, and the id of the removed one is refused from
+  // then on (an object added later may reuse its slot under a new generation). Particle indices
+  // past the object's move down, so spans from positions() taken before are stale. Attachments
+  // keep their indices: those that touched the object are taken out as removeAttachment does,
+  // and their count is returned. The collision caches are dropped.
+  std::size_t removeObject(ObjectId id);
   bool attachmentBroken(std::size_t index) const;
   std::size_t brokenAttachments() const;
   // Where the last substep's contacts pressed (a multiplier above zero), for display: a collider

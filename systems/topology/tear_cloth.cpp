@@ -161,30 +161,6 @@ std::size_t cutEdges(const std::vector<std::array<Index, 3>>& triangles, const S
   return cut.size();
 }
 
-// Removes the constraints of object `object` from a built-in pool (its derived tables are rebuilt
-// with the world's).
-template <class Pool>
-void removeObjectConstraints(Pool& pool, const std::vector<std::uint32_t>& phase,
-                             std::uint32_t object) {
-  std::size_t kept = 0;
-  for (std::size_t c = 0; c < pool.size(); ++c) {
-    if (phase[pool.particles[c][0]] == object) continue;
-    pool.particles[kept] = pool.particles[c];
-    pool.rest[kept] = pool.rest[c];
-    pool.compliance[kept] = pool.compliance[c];
-    pool.compressionCompliance[kept] = pool.compressionCompliance[c];
-    pool.damping[kept] = pool.damping[c];
-    pool.lambda[kept] = pool.lambda[c];
-    ++kept;
-  }
-  pool.particles.resize(kept);
-  pool.rest.resize(kept);
-  pool.compliance.resize(kept);
-  pool.compressionCompliance.resize(kept);
-  pool.damping.resize(kept);
-  pool.lambda.resize(kept);
-}
-
 struct Candidate {
   double strain;
   Index edge;
@@ -308,7 +284,9 @@ std::size_t tearObject(ObjectRecord& record, std::uint32_t object, ParticlePool&
 
   // The object's constraints again, from the torn complex. Tethers too: their limits are
   // geodesic, and a path around the cut is longer than the one across it was.
-  pools.forEachBuiltin([&](auto& pool) { removeObjectConstraints(pool, particles.phase, object); });
+  pools.forEachBuiltin([&](auto& pool) {
+    pool.retain([&](std::size_t c) { return particles.phase[pool.particles[c][0]] != object; });
+  });
   std::vector<Index> held;
   for (Index v = 0; v < record.particleCount; ++v)
     if (particles.w[first + v] == 0) held.push_back(v);
