@@ -225,6 +225,13 @@ PYBIND11_MODULE(nucleon, m) {
            })
       .def("end_drag", [](PyWorld& w, std::size_t drag) { w.world.endDrag(drag); })
       .def(
+          "remove_object",
+          [](PyWorld& w, py::object which) { return w.world.removeObject(w.object(which)); },
+          py::arg("object"),
+          "Takes an object out for good (World::removeObject; by index or name) and returns how "
+          "many attachments went with it. The particles after it move down: views from "
+          "positions() and velocities() taken before are stale, take them again.")
+      .def(
           "measure",
           [](const PyWorld& w) {
             const Measures m = w.world.measure();

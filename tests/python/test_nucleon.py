@@ -55,6 +55,27 @@ def test_scene_from_a_dict_falls_as_symplectic_euler():
     assert fell == pytest.approx(9.81 * h * h * n * (n + 1) / 2, rel=1e-4)
 
 
+def test_remove_object_leaves_the_rest_falling():
+    scene = {
+        "name": "two", "fps": 60, "gravity": [0, -9.81, 0],
+        "solver": {"type": "colored-gs", "iterations": 4, "substeps": 2},
+        "objects": [{"type": "cloth", "name": name,
+                     "shape": {"grid": {"resolution": [8, 8], "size": [1, 1],
+                                        "center": [x, 5, 0]}},
+                     "material": {"mass": 1.0}} for name, x in (("a", 0), ("b", 5))],
+    }
+    world = nucleon.World.from_dict(scene)
+    world.step(count=10)
+    assert world.remove_object("a") == 0
+    assert world.object_names == ["b"] and world.particle_count == 64
+    with pytest.raises(KeyError):
+        world.positions("a")
+    world.step(count=20)
+    n, h = 60, 1 / 120  # b fell free all along: 30 frames of 2 substeps
+    fell = 5 - world.positions("b")[:, 1].mean()
+    assert fell == pytest.approx(9.81 * h * h * n * (n + 1) / 2, rel=1e-4)
+
+
 def test_writes_impulses_and_drags():
     world = nucleon.World.from_scene(HANG)
     world.step(count=3)
