@@ -46,11 +46,25 @@ struct ConstraintPools {
 #undef NUCLEON_POOL
   }
 
+  template <class F>
+  void forEachBuiltin(F&& f) const {
+#define NUCLEON_POOL(member, arity, Kernel, paths) f(member);
+#define NUCLEON_FAMILY_POOLS(enumerator, name, pools) pools
+    NUCLEON_CONSTRAINT_FAMILIES(NUCLEON_FAMILY_POOLS)
+#undef NUCLEON_FAMILY_POOLS
+#undef NUCLEON_POOL
+  }
+
   // Calls f(pool) for every pool, built-in and registered.
   template <class F>
   void forEach(F&& f) {
     forEachBuiltin(f);
     for (UserConstraintPool& pool : user) f(pool);
+  }
+  template <class F>
+  void forEach(F&& f) const {
+    forEachBuiltin(f);
+    for (const UserConstraintPool& pool : user) f(pool);
   }
 
   std::size_t count(ConstraintFamily family) const {

@@ -23,7 +23,7 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string scenePath(const std::string& name) {
-  return std::string(NUCLEON_ASSETS_DIR) + "/scenes/" + name + ".json";
+  return (fs::path(NUCLEON_ASSETS_DIR) / "scenes" / (name + ".json")).string();
 }
 
 fs::path freshFolder(const std::string& name) {
@@ -36,7 +36,8 @@ struct ResumeCase {
   const char* scene;
   int frames;
   int checkpointAt;
-  bool collides;  // the resumed frames must have primitive or collider contacts
+  bool collides;       // the resumed frames must have primitive or collider contacts
+  bool tears = false;  // … and tear the cloth further (the checkpoint holds a torn mesh)
 };
 
 class ResumedRun : public ::testing::TestWithParam<ResumeCase> {};
@@ -68,6 +69,20 @@ TEST_P(ResumedRun, EndsInTheUninterruptedState) {
   EXPECT_EQ(resumed.stats.at("collisions").at("contacts"),
             whole.stats.at("collisions").at("contacts"));
   EXPECT_EQ(resumed.stats.at("recoveries"), whole.stats.at("recoveries"));
+  if (c.collides || c.tears) {
+    const test::SceneRun head =
+        test::runScene(scenePath(c.scene), {"--frames", std::to_string(c.checkpointAt)});
+    ASSERT_FALSE(head.stats.is_null());
+    if (c.tears) {
+      // Torn at the checkpoint, and torn further after it.
+      const auto torn = [](const test::SceneRun& run) {
+        return run.stats.at("tearing").at("new_vertices").get<std::uint64_t>();
+      };
+      EXPECT_GT(torn(head), 0u) << c.scene << " is not torn at the checkpoint";
+      EXPECT_GT(torn(whole), torn(head)) << "the resumed frames of " << c.scene << " tear nothing";
+      EXPECT_EQ(resumed.stats.at("tearing"), whole.stats.at("tearing"));
+    }
+  }
   if (c.collides) {
     // Primitive contacts made after the checkpoint: the whole run's less those up to it.
     const test::SceneRun head =
@@ -88,7 +103,9 @@ INSTANTIATE_TEST_SUITE_P(Checkpoint, ResumedRun,
                                            ResumeCase{"balloon", 16, 9, false},
                                            ResumeCase{"attachments", 16, 9, false},
                                            ResumeCase{"rigid_on_cloth", 16, 9, true},
-                                           ResumeCase{"water_on_cloth", 12, 7, true}),
+                                           ResumeCase{"water_on_cloth", 12, 7, true},
+                                           ResumeCase{"tear", 26, 20, false, true},
+                                           ResumeCase{"bullet_cloth_tear", 16, 2, false, true}),
                          [](const ::testing::TestParamInfo<ResumeCase>& info) {
                            return std::string(info.param.scene);
                          });
@@ -148,12 +165,6 @@ TEST(Checkpoint, CommandLineRefusesWhatDoesNotMatch) {
   EXPECT_EQ(resume({"run", scenePath("cloth_hang"), "--quiet", "--resume", cut.string()}, error),
             2);
   EXPECT_NE(error.find("ends early"), std::string::npos) << error;
-  // A tearable cloth's torn mesh is not held by checkpoints: refused before the run.
-  EXPECT_EQ(resume({"run", scenePath("tear"), "--quiet", "--frames", "2", "--checkpoint-every", "1",
-                    folder.string()},
-                   error),
-            2);
-  EXPECT_NE(error.find("tearable"), std::string::npos) << error;
   fs::remove_all(folder);
 }
 
@@ -200,6 +211,41 @@ TEST(Checkpoint, RefusedCheckpointLeavesTheWorldUnchanged) {
   EXPECT_EQ(world.stateHash(), written.stateHash());
   for (int i = 0; i < 3; ++i) written.step(1.0 / 60), world.step(1.0 / 60);
   EXPECT_EQ(world.stateHash(), written.stateHash());
+}
+
+// A torn cloth's checkpoint, through the library: it loads into a world as built (not into one
+// torn since), and under every backend the world goes on as the writer does, tearing the same.
+TEST(Checkpoint, TornClothResumesUnderEveryBackend) {
+  for (const char* backend : {"jacobi", "colored-gs", "gauss-seidel", "multigrid"}) {
+    SCOPED_TRACE(backend);
+    const std::vector<std::string> sets = {std::string("solver.type=") + backend};
+    const auto build = [&] {
+      const std::string path = scenePath("bullet_cloth_tear");
+      return buildWorld(parseScene(applySceneOverrides(readSceneFile(path), sets, path), path,
+                                   (fs::path(NUCLEON_ASSETS_DIR) / "scenes").string()));
+    };
+    World written = build();
+    written.step(1.0 / 60);  // it tears in its first step under each backend
+    ASSERT_GT(written.tearReport().newVertices, 0u);
+    std::ostringstream saved(std::ios::binary);
+    saveCheckpoint(written, saved, "torn");
+    const std::string bytes = saved.str();
+    {
+      std::istringstream in(bytes, std::ios::binary);
+      EXPECT_THROW(loadCheckpoint(written, in, "torn"), CheckpointError);  // torn since built
+    }
+    World world = build();
+    std::istringstream in(bytes, std::ios::binary);
+    loadCheckpoint(world, in, "torn");
+    EXPECT_EQ(world.stateHash(), written.stateHash());
+    EXPECT_EQ(world.particleCount(), written.particleCount());
+    EXPECT_EQ(world.constraintCount(ConstraintFamily::Stretch),
+              written.constraintCount(ConstraintFamily::Stretch));
+    written.step(1.0 / 60), world.step(1.0 / 60);  // … and again in its second
+    EXPECT_EQ(world.stateHash(), written.stateHash());
+    EXPECT_EQ(world.tearReport().newVertices, written.tearReport().newVertices);
+    EXPECT_GT(written.tearReport().tearSteps, 1u);
+  }
 }
 
 }  // namespace

@@ -285,10 +285,6 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
       throw UsageError("--resume: the checkpoint is at frame " + std::to_string(firstFrame - 1) +
                        ", the run has " + std::to_string(scene.frames) + " frames");
   }
-  if (o.checkpointEvery > 0 && world.tearReport().spareParticles > 0)
-    throw UsageError(
-        "--checkpoint-every: the scene has a tearable cloth, whose torn mesh "
-        "checkpoints cannot hold yet");
   if (o.checkpointEvery > 0 && fs::exists(o.checkpointDir) && !fs::is_directory(o.checkpointDir))
     throw UsageError("--checkpoint-every: '" + o.checkpointDir + "' exists and is not a folder");
 

@@ -2,6 +2,7 @@
 // step, behind a header that says which format, library, precision and world wrote it.
 #include "nucleon/checkpoint.h"
 
+#include <algorithm>
 #include <cstring>
 #include <istream>
 #include <ostream>
@@ -9,6 +10,7 @@
 #include <vector>
 
 #include "engine/src/world_state.h"
+#include "systems/topology/tear_cloth.h"
 
 namespace nucleon {
 namespace {
@@ -37,8 +39,11 @@ struct Fingerprint {
 };
 
 // What the world was built from, as far as a checkpoint depends on it: the objects (names, kinds,
-// particle ranges), every particle's rest position and the constraint count of every family. A
-// checkpoint read into a world whose fingerprint differs would put its state on other particles.
+// particle ranges), the rest position of every vertex an object was made with and the
+// constraint count of every pool. A checkpoint read into a world whose fingerprint differs would
+// put its state on other particles. A tear changes none of it: a tearable cloth's range counts
+// its spare particles, its copies' rest positions and its constraints (rebuilt at every tear, and
+// from the checkpoint) are left out.
 std::uint64_t structureOf(const World& world) {
   const WorldState& s = world.impl().state;
   Fingerprint f;
@@ -48,11 +53,22 @@ std::uint64_t structureOf(const World& world) {
     f.add(o.name.data(), o.name.size());
     f.add(o.kind);
     f.add(o.firstParticle);
-    f.add(o.particleCount);
+    f.add(o.particleCount + o.tear.spareParticles);
+    for (Index v = 0; v < o.particleCount; ++v)
+      if (o.tear.origin.empty() || o.tear.origin[v] == v)
+        f.add(s.particles.restPosition[o.firstParticle + v]);
   }
-  f.add(s.particles.restPosition.data(), s.particles.restPosition.size() * sizeof(Vec3));
-  for (std::size_t family = 0; family < world.familyCount(); ++family)
-    f.add(std::uint64_t(world.constraintCount(static_cast<ConstraintFamily>(family))));
+  const auto tearable = [&](Index particle) {
+    return s.objects[s.particles.phase[particle]].material.tear.enabled();
+  };
+  s.constraints.forEach([&](const auto& pool) {
+    std::uint64_t count = 0;
+    for (std::size_t c = 0; c < pool.size(); ++c) count += !tearable(pool.particle(c, 0));
+    f.add(count);
+  });
+  for (const auto family : {ConstraintFamily::Pressure, ConstraintFamily::Attachment,
+                            ConstraintFamily::Rigidity, ConstraintFamily::Density})
+    f.add(std::uint64_t(world.constraintCount(family)));
   return f.value;
 }
 
@@ -172,6 +188,18 @@ struct Snapshot {
   std::vector<Vec3> x, v, p;
   std::vector<Real> w;
   std::vector<std::vector<double>> tearTimers;  // per object
+  // A torn cloth's mesh as the tears left it (TearState; the object's record and rest shape).
+  struct TornCloth {
+    std::uint32_t object = 0;
+    Index particleCount = 0, spareParticles = 0;
+    std::vector<std::array<Index, 3>> triangles;
+    std::vector<Index> origin;
+    std::vector<std::uint8_t> opened;
+    std::vector<Vec3> rest;
+    SimplicialComplex complex;
+  };
+  std::vector<TornCloth> torn;
+  bool tablesDirty = false;  // the writer's tables were to be rebuilt at its next step
   struct Track {
     std::uint8_t pending = 0;
     std::vector<Vec3> goal, stepStart;
@@ -225,8 +253,6 @@ void collisionCaches(PairsA& pa, BvhA& ba, ContactsA& ca, PairsB& pb, BvhB& bb, 
 
 void saveCheckpoint(const World& world, std::ostream& out, const std::string& label) {
   const WorldState& s = world.impl().state;
-  if (anyTorn(s))
-    throw CheckpointError("checkpoint: a torn cloth's changed mesh cannot be written yet");
   static_assert(
       std::is_trivially_copyable_v<ImpactHold> && std::is_trivially_copyable_v<Recoveries> &&
       std::is_trivially_copyable_v<TearReport> && std::is_trivially_copyable_v<CollisionReport>);
@@ -250,6 +276,20 @@ void saveCheckpoint(const World& world, std::ostream& out, const std::string& la
   write.array(s.particles.v);
   write.array(s.particles.p);
   write.array(s.particles.w);
+  // Torn cloths: the mesh the tears left, from which the loader rebuilds its constraints.
+  for (const ObjectRecord& o : s.objects) {
+    const bool torn = !o.tear.origin.empty();
+    write.pod(std::uint8_t(torn));
+    if (!torn) continue;
+    write.pod(o.particleCount);
+    write.pod(o.tear.spareParticles);
+    write.array(o.surface);
+    write.array(o.tear.origin);
+    write.array(o.tear.opened);
+    write.array(
+        std::vector<Vec3>(s.particles.restPosition.begin() + o.firstParticle,
+                          s.particles.restPosition.begin() + o.firstParticle + o.particleCount));
+  }
   for (const ObjectRecord& o : s.objects) write.array(o.tear.overTime);
   for (const KinematicTrack& track : s.kinematics.tracks) {
     write.pod(std::uint8_t(track.targetsPending));
@@ -268,6 +308,9 @@ void saveCheckpoint(const World& world, std::ostream& out, const std::string& la
   write.pod(pairs.pathFrom), write.pod(pairs.pathTo), write.pod(std::uint8_t(pairs.pathsHeld));
   write.pod(pairs.boundSlack), write.pod(pairs.frameSubstep), write.pod(pairs.version);
   write.pod(s.primitiveContacts.boundVersion);
+  // A tear at the end of the last step leaves the tables to rebuild at the next one's start, which
+  // drops the narrow phase's bounds: the resumed world must do the same.
+  write.pod(std::uint8_t(s.topologyDirty));
   collisionCaches(pairs, s.bvh, s.primitiveContacts, pairs, s.bvh, s.primitiveContacts,
                   [&](const auto& values, const auto&) { write.array(values); });
   if (!out) throw std::runtime_error("checkpoint: cannot write");
@@ -294,7 +337,8 @@ void loadCheckpoint(World& world, std::istream& in, const std::string& label) {
                           "', this run is '" + label + "')");
   if (read.pod<std::uint64_t>() != structureOf(world))
     throw CheckpointError("checkpoint: written for a world with other objects or particles");
-  if (anyTorn(s)) throw CheckpointError("checkpoint: this world has a torn cloth");
+  if (anyTorn(s))
+    throw CheckpointError("checkpoint: this world has a torn cloth (load into a world as built)");
 
   Snapshot snap;
   snap.time = read.pod<double>();
@@ -310,9 +354,43 @@ void loadCheckpoint(World& world, std::istream& in, const std::string& label) {
   snap.v = read.array<Vec3>(n, "velocities");
   snap.p = read.array<Vec3>(n, "predictions");
   snap.w = read.array<Real>(n, "inverse masses");
+  for (std::uint32_t object = 0; object < s.objects.size(); ++object) {
+    if (read.pod<std::uint8_t>() == 0) continue;
+    const ObjectRecord& o = s.objects[object];
+    const std::string what = "checkpoint: the torn mesh of '" + o.name + "'";
+    if (!o.material.tear.enabled()) throw CheckpointError(what + ": it cannot tear");
+    Snapshot::TornCloth& t = snap.torn.emplace_back();
+    t.object = object;
+    t.particleCount = read.pod<Index>();
+    t.spareParticles = read.pod<Index>();
+    const Index range = o.particleCount + o.tear.spareParticles;
+    if (t.particleCount < o.particleCount || t.particleCount > range ||
+        t.particleCount + t.spareParticles != range)
+      throw CheckpointError(what + " has another particle count");
+    t.triangles = read.cache<std::array<Index, 3>>(8 * std::size_t(range));
+    t.origin = read.array<Index>(t.particleCount, "torn vertices");
+    t.opened = read.array<std::uint8_t>(t.particleCount, "torn vertices");
+    t.rest = read.array<Vec3>(t.particleCount, "torn vertices");
+    for (const auto& triangle : t.triangles)
+      for (Index v : triangle)
+        if (v >= t.particleCount) throw CheckpointError(what + ": a vertex is out of range");
+    for (Index v : t.origin)
+      if (v >= o.particleCount) throw CheckpointError(what + ": an origin is out of range");
+    for (const Vec3& r : t.rest)
+      if (!r.allFinite()) throw CheckpointError(what + ": a rest position is not finite");
+    try {
+      t.complex = buildFromTriangles(t.particleCount, t.triangles);
+    } catch (const MeshError& e) {
+      throw CheckpointError(what + ": " + e.what());
+    }
+  }
   // A tearable cloth's timers are sized at its first step: a new world has none yet.
-  for (const ObjectRecord& o : s.objects) {
-    const std::size_t edges = o.complex.edges.size();
+  for (std::uint32_t object = 0; object < s.objects.size(); ++object) {
+    const ObjectRecord& o = s.objects[object];
+    const auto torn = std::find_if(snap.torn.begin(), snap.torn.end(),
+                                   [&](const auto& t) { return t.object == object; });
+    const std::size_t edges =
+        torn != snap.torn.end() ? torn->complex.edges.size() : o.complex.edges.size();
     snap.tearTimers.push_back(read.cache<double>(edges));
     if (!snap.tearTimers.back().empty() && snap.tearTimers.back().size() != edges)
       throw CheckpointError("checkpoint: tear timers for another mesh of '" + o.name + "'");
@@ -339,6 +417,7 @@ void loadCheckpoint(World& world, std::istream& in, const std::string& label) {
     pairs.boundSlack = read.pod<Real>(), pairs.frameSubstep = read.pod<int>();
     pairs.version = read.pod<std::uint64_t>();
     snap.contacts.boundVersion = read.pod<std::uint64_t>();
+    snap.tablesDirty = read.pod<std::uint8_t>() != 0;
     // No cache holds more entries than this (a corrupt length fails here, not in an allocation).
     const std::size_t most = std::size_t{1} << 34;
     collisionCaches(pairs, snap.bvh, snap.contacts, pairs, snap.bvh, snap.contacts,
@@ -365,6 +444,19 @@ void loadCheckpoint(World& world, std::istream& in, const std::string& label) {
   s.particles.v = std::move(snap.v);
   s.particles.p = std::move(snap.p);
   s.particles.w = std::move(snap.w);
+  for (Snapshot::TornCloth& t : snap.torn) {
+    ObjectRecord& o = s.objects[t.object];
+    o.particleCount = t.particleCount;
+    o.tear.spareParticles = t.spareParticles;
+    o.surface = std::move(t.triangles);
+    o.complex = std::move(t.complex);
+    o.closed = false;
+    o.tear.origin = std::move(t.origin);
+    o.tear.opened = std::move(t.opened);
+    std::copy(t.rest.begin(), t.rest.end(), s.particles.restPosition.begin() + o.firstParticle);
+    rebuildTornConstraints(o, t.object, s.particles, s.constraints);
+    s.topologyDirty = true;
+  }
   for (std::size_t o = 0; o < s.objects.size(); ++o)
     s.objects[o].tear.overTime = std::move(snap.tearTimers[o]);
   for (std::size_t t = 0; t < s.kinematics.tracks.size(); ++t) {
@@ -391,6 +483,7 @@ void loadCheckpoint(World& world, std::istream& in, const std::string& label) {
   collisionCaches(pairs, s.bvh, s.primitiveContacts, snap.pairs, snap.bvh, snap.contacts,
                   [](auto& to, auto& from) { to = std::move(from); });
   s.bvh.commit();
+  s.topologyDirty = snap.tablesDirty;
 }
 
 }  // namespace nucleon

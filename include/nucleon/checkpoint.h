@@ -27,20 +27,21 @@
 namespace nucleon {
 
 // A checkpoint that cannot be read into this world: another format or library version, another
-// precision, another scene (the label or the world's structure differ), a cloth torn since it
-// was built (not supported yet), or a truncated file. what() is one line.
+// precision, another scene (the label or the world's structure differ), a world with a cloth torn
+// since it was built (a checkpoint loads into a world as built), or a truncated file. what() is
+// one line.
 class CheckpointError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
 
 // The format's version: a checkpoint written under another is refused.
-constexpr std::uint32_t kCheckpointFormat = 1;
+constexpr std::uint32_t kCheckpointFormat = 2;
 
 // Writes the world's state. `label` is the caller's name for what the world was built from (the
 // command line uses a hash of the scene file and its settings); loadCheckpoint refuses a label
-// that differs. Throws CheckpointError for a world with a torn cloth, std::runtime_error when the
-// stream fails.
+// that differs. A torn cloth's mesh is written as the tears left it. Throws std::runtime_error
+// when the stream fails.
 void saveCheckpoint(const World& world, std::ostream& out, const std::string& label);
 
 // Reads a checkpoint into `world`, which must have been built like the one that wrote it (same

@@ -282,11 +282,20 @@ std::size_t tearObject(ObjectRecord& record, std::uint32_t object, ParticlePool&
     state.opened[splitFrom[k]] = 0;  // coincident with its new copy again
   }
 
-  // The object's constraints again, from the torn complex. Tethers too: their limits are
-  // geodesic, and a path around the cut is longer than the one across it was.
+  rebuildTornConstraints(record, object, particles, pools);
+  return splitFrom.size();
+}
+
+}  // namespace
+
+// Tethers too: their limits are geodesic, and a path around the cut is longer than the one
+// across it was.
+void rebuildTornConstraints(const ObjectRecord& record, std::uint32_t object,
+                            const ParticlePool& particles, ConstraintPools& pools) {
   pools.forEachBuiltin([&](auto& pool) {
     pool.retain([&](std::size_t c) { return particles.phase[pool.particles[c][0]] != object; });
   });
+  const Index first = record.firstParticle;
   std::vector<Index> held;
   for (Index v = 0; v < record.particleCount; ++v)
     if (particles.w[first + v] == 0) held.push_back(v);
@@ -294,10 +303,7 @@ std::size_t tearObject(ObjectRecord& record, std::uint32_t object, ParticlePool&
       pools, record.kind, record.complex,
       std::span<const Vec3>(particles.restPosition).subspan(first, record.particleCount), held,
       first, record.material);
-  return splitFrom.size();
 }
-
-}  // namespace
 
 Index tearSpareParticles(const Tear& tear, std::size_t vertexCount) {
   if (!tear.enabled()) return 0;

@@ -32,6 +32,12 @@ Index tearSpareParticles(const Tear& tear, std::size_t vertexCount);
 bool tearCloths(std::vector<ObjectRecord>& objects, ParticlePool& particles, ConstraintPools& pools,
                 double dt, TearReport& report);
 
+// The constraints of a torn cloth (object number `object`) again, from its complex as it is now:
+// its old ones leave the built-in pools and the new ones are appended (a tear, or a checkpoint
+// restoring a torn cloth). Its particles at inverse mass 0 are held, as pins are.
+void rebuildTornConstraints(const ObjectRecord& record, std::uint32_t object,
+                            const ParticlePool& particles, ConstraintPools& pools);
+
 // Marks the torn vertices that now stand farther than their contact distance from every other
 // copy of the same original (TearState::opened), and enters them into
 // primitives.particleOrigin, so that from the next step pairs across the cut collide.
