@@ -271,6 +271,8 @@ TEST_P(RemoveObject, SurvivorsKeepEveryConstraintAndGoOnWorking) {
     World world;
     const std::vector<std::vector<ObjectId>> ids = buildMenagerie(world, GetParam());
     for (int i = 0; i < 12; ++i) world.step(kDt);
+    // The tearing cloth has torn: its removal takes split copies and spare particles.
+    ASSERT_GT(world.tearReport().newVertices, 0u);
     Description before = describe(world);
     std::vector<std::vector<std::string>> names(ids.size());
     for (std::size_t member = 0; member < ids.size(); ++member)
@@ -311,7 +313,8 @@ TEST_P(RemoveObject, SurvivorsKeepEveryConstraintAndGoOnWorking) {
       for (std::size_t k = 0; k < ids[member].size(); ++k)
         EXPECT_EQ(world.name(ids[member][k]), names[member][k]);
     }
-    for (int i = 0; i < 12; ++i) world.step(kDt);
+    constexpr int kAfter = 6;
+    for (int i = 0; i < kAfter; ++i) world.step(kDt);
     // A pin does not move at all; the animated pin is on its slide up to the rounding of a posed
     // position in float (1e-5 m at 20 m from the origin); the weld's gap and the rigid block's
     // diagonal stay within 1 mm of what they were (8 sweeps of the solve a step).
@@ -327,9 +330,10 @@ TEST_P(RemoveObject, SurvivorsKeepEveryConstraintAndGoOnWorking) {
     if (keeps[kRigidBlock]) {
       EXPECT_NEAR(blockDiagonal(world, ids), diagonal, 1e-3);
     }
-    // The balloon's pump goes on: 0.01 m³/s of ambient air for 12 steps.
+    // The balloon's pump goes on: 0.01 m³/s of ambient air for kAfter steps.
     if (keeps[kBalloon]) {
-      EXPECT_NEAR(world.pressure(ids[kBalloon][0]).gas - gas, 101325 * 0.01 * 12 * kDt, 1e-6 * gas);
+      EXPECT_NEAR(world.pressure(ids[kBalloon][0]).gas - gas, 101325 * 0.01 * kAfter * kDt,
+                  1e-6 * gas);
     }
     // The liquid is settled at its rest density, give or take the solver's 8 sweeps.
     if (keeps[kLiquid]) {

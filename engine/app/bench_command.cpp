@@ -53,12 +53,9 @@ struct BenchOptions {
 
 BenchOptions parseBench(const std::vector<std::string>& args) {
   BenchOptions o;
-  for (std::size_t i = 1; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&]() -> const std::string& {
-      if (i + 1 >= args.size()) throw UsageError(a + " needs a value");
-      return args[++i];
-    };
+  for (cli::Arguments arguments(args); arguments.next();) {
+    const std::string& a = arguments.current();
+    const auto value = [&]() -> const std::string& { return arguments.value(); };
     if (a == "--threads") {
       o.threads = cli::parseIntList(a, value(), 1, 4096);
     } else if (a == "--solver") {

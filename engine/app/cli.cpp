@@ -22,6 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "nucleon/checkpoint.h"
+#include "nucleon/hash.h"
 #include "nucleon/mesh_io.h"
 #include "nucleon/render.h"
 #include "nucleon/scene.h"
@@ -136,12 +137,9 @@ struct RunOptions {
 
 RunOptions parseRun(const std::vector<std::string>& args) {
   RunOptions o;
-  for (std::size_t i = 1; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&]() -> const std::string& {
-      if (i + 1 >= args.size()) throw UsageError(a + " needs a value");
-      return args[++i];
-    };
+  for (cli::Arguments arguments(args); arguments.next();) {
+    const std::string& a = arguments.current();
+    const auto value = [&]() -> const std::string& { return arguments.value(); };
     if (a == "--frames")
       o.frames = parseInt(a, value(), 1, 1000000);
     else if (a == "--substeps")
@@ -225,11 +223,11 @@ class Progress {
 // What a checkpoint must have been written for: the scene's text after --set (FNV-1a) and the
 // settings the other flags may change. Readable, so that a refusal says what differs.
 std::string runLabel(const std::string& text, const Scene& scene) {
-  std::uint64_t hash = 1469598103934665603ull;
-  for (const unsigned char c : text) hash = (hash ^ c) * 1099511628211ull;
+  Fnv1a hash;
+  hash.add(text);
   std::ostringstream label;
-  label << scene.name << " file " << hex16(hash) << ", " << toString(scene.solver.kind) << " x"
-        << scene.solver.iterations << ", " << scene.solver.substeps << " substeps, travel "
+  label << scene.name << " file " << hex16(hash.value) << ", " << toString(scene.solver.kind)
+        << " x" << scene.solver.iterations << ", " << scene.solver.substeps << " substeps, travel "
         << scene.solver.maxKinematicTravel << '/' << scene.solver.maxImpactTravel << ", "
         << scene.fps << " fps";
   return label.str();
@@ -237,14 +235,9 @@ std::string runLabel(const std::string& text, const Scene& scene) {
 
 int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const RunOptions o = parseRun(args);
-  Scene scene;
-  std::string sceneText;  // after --set
-  try {
-    sceneText = applySceneOverrides(readSceneFile(o.scene), o.sets, o.scene);
-    scene = parseScene(sceneText, o.scene, fs::path(o.scene).parent_path().string());
-  } catch (const SceneError& e) {
-    throw UsageError(e.what());
-  }
+  cli::SceneSource source = cli::loadSceneWithSets(o.scene, o.sets);
+  Scene& scene = source.scene;
+  const std::string& sceneText = source.text;  // after --set
   if (o.frames) scene.frames = *o.frames;
   if (o.substeps) scene.solver.substeps = *o.substeps;
   if (o.maxKinematicTravel)

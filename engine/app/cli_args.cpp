@@ -2,10 +2,41 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <iomanip>
 #include <sstream>
 
 namespace nucleon::cli {
+
+std::string readSceneText(const std::string& path) {
+  try {
+    return readSceneFile(path);
+  } catch (const SceneError& e) {
+    throw UsageError(e.what());
+  }
+}
+
+Scene parseSceneWithSets(const std::string& text, const std::vector<std::string>& sets,
+                         const std::string& path) {
+  try {
+    return parseScene(applySceneOverrides(text, sets, path), path,
+                      std::filesystem::path(path).parent_path().string());
+  } catch (const SceneError& e) {
+    throw UsageError(e.what());
+  }
+}
+
+SceneSource loadSceneWithSets(const std::string& path, const std::vector<std::string>& sets) {
+  SceneSource source;
+  try {
+    source.text = applySceneOverrides(readSceneFile(path), sets, path);
+    source.scene =
+        parseScene(source.text, path, std::filesystem::path(path).parent_path().string());
+  } catch (const SceneError& e) {
+    throw UsageError(e.what());
+  }
+  return source;
+}
 
 int parseInt(const std::string& flag, const std::string& value, int lo, int hi) {
   std::size_t used = 0;

@@ -6,12 +6,48 @@
 #include <string>
 #include <vector>
 
+#include "nucleon/scene.h"
+
 namespace nucleon::cli {
 
 // Thrown for a command line or input that cannot be run; the message is the whole error line.
 struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
+
+// A command's arguments after its name, walked in order:
+//   for (Arguments arguments(args); arguments.next();)
+//     if (arguments.current() == "--frames") frames = parseInt("--frames", arguments.value(), …);
+// value() takes the argument after the current flag, or throws UsageError saying the flag needs
+// one.
+class Arguments {
+ public:
+  explicit Arguments(const std::vector<std::string>& args) : args_(args) {}
+  bool next() { return ++index_ < args_.size(); }
+  const std::string& current() const { return args_[index_]; }
+  const std::string& value() {
+    if (index_ + 1 >= args_.size()) throw UsageError(args_[index_] + " needs a value");
+    return args_[++index_];
+  }
+
+ private:
+  const std::vector<std::string>& args_;
+  std::size_t index_ = 0;  // args_[0] is the command's name
+};
+
+// The scene file `path` with `sets` applied (applySceneOverrides): its text after them, for a
+// run's label, and the scene parsed from it (meshes looked up beside the file). A SceneError
+// becomes a UsageError.
+struct SceneSource {
+  std::string text;
+  Scene scene;
+};
+SceneSource loadSceneWithSets(const std::string& path, const std::vector<std::string>& sets);
+// The same from the file's text, read once for many sets of settings (a sweep's grid).
+Scene parseSceneWithSets(const std::string& text, const std::vector<std::string>& sets,
+                         const std::string& path);
+// The scene file's text; a SceneError becomes a UsageError.
+std::string readSceneText(const std::string& path);
 
 // An integer in [lo, hi], or UsageError naming the flag.
 int parseInt(const std::string& flag, const std::string& value, int lo, int hi);

@@ -61,12 +61,9 @@ struct SweepOptions {
 
 SweepOptions parseSweep(const std::vector<std::string>& args) {
   SweepOptions o;
-  for (std::size_t i = 1; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&]() -> const std::string& {
-      if (i + 1 >= args.size()) throw UsageError(a + " needs a value");
-      return args[++i];
-    };
+  for (cli::Arguments arguments(args); arguments.next();) {
+    const std::string& a = arguments.current();
+    const auto value = [&]() -> const std::string& { return arguments.value(); };
     if (a == "--set") {
       const std::string& entry = value();
       const std::size_t equals = entry.find('=');
@@ -267,23 +264,12 @@ int runSweep(const std::vector<std::string>& args, std::ostream& out, std::ostre
   }
   // Every grid point is parsed before anything is written: a bad key or value fails the sweep
   // up front, naming the setting.
-  const std::string text = [&] {
-    try {
-      return readSceneFile(o.scene);
-    } catch (const SceneError& e) {
-      throw UsageError(e.what());
-    }
-  }();
+  const std::string text = cli::readSceneText(o.scene);
   const std::vector<std::vector<std::string>> points = gridPoints(o.axes);
-  const std::string folder = fs::path(o.scene).parent_path().string();
   for (const auto& point : points) {
     std::vector<std::string> sets;
     for (std::size_t k = 0; k < o.axes.size(); ++k) sets.push_back(o.axes[k].key + "=" + point[k]);
-    try {
-      parseScene(applySceneOverrides(text, sets, o.scene), o.scene, folder);
-    } catch (const SceneError& e) {
-      throw UsageError(e.what());
-    }
+    cli::parseSceneWithSets(text, sets, o.scene);
   }
   const fs::path dir =
       fs::absolute(o.outDir.empty() ? "sweep_" + fs::path(o.scene).stem().string() : o.outDir);

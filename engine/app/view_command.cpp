@@ -56,12 +56,9 @@ struct ViewOptions {
 
 ViewOptions parseView(const std::vector<std::string>& args) {
   ViewOptions o;
-  for (std::size_t i = 1; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&]() -> const std::string& {
-      if (i + 1 >= args.size()) throw UsageError(a + " needs a value");
-      return args[++i];
-    };
+  for (cli::Arguments arguments(args); arguments.next();) {
+    const std::string& a = arguments.current();
+    const auto value = [&]() -> const std::string& { return arguments.value(); };
     if (a == "--frames")
       o.frames = cli::parseInt(a, value(), 1, 1000000);
     else if (a == "--screenshot")
@@ -96,13 +93,7 @@ ViewOptions parseView(const std::vector<std::string>& args) {
 }
 
 Scene loadViewScene(const ViewOptions& o) {
-  Scene scene;
-  try {
-    scene = parseScene(applySceneOverrides(readSceneFile(o.scene), o.sets, o.scene), o.scene,
-                       fs::path(o.scene).parent_path().string());
-  } catch (const SceneError& e) {
-    throw UsageError(e.what());
-  }
+  Scene scene = cli::loadSceneWithSets(o.scene, o.sets).scene;
   if (o.substeps) scene.solver.substeps = *o.substeps;
   if (o.threads) scene.threads = *o.threads;
   if (o.iterations) {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "engine/src/world_state.h"
+#include "nucleon/hash.h"
 #include "systems/topology/tear_cloth.h"
 
 namespace nucleon {
@@ -24,17 +25,13 @@ template <class T>
 constexpr bool kPlainBytes =
     std::is_trivially_copyable_v<T> || std::is_same_v<T, Vec3> || std::is_same_v<T, Vec3d>;
 
-// FNV-1a, as World::stateHash.
-struct Fingerprint {
-  std::uint64_t value = 1469598103934665603ull;
-  void add(const void* data, std::size_t bytes) {
-    const auto* b = static_cast<const unsigned char*>(data);
-    for (std::size_t i = 0; i < bytes; ++i) value = (value ^ b[i]) * 1099511628211ull;
-  }
+// The structure's fingerprint: FNV-1a, as World::stateHash, of plain values.
+struct Fingerprint : Fnv1a {
+  using Fnv1a::add;
   template <class T>
   void add(const T& pod) {
     static_assert(kPlainBytes<T>);
-    add(&pod, sizeof(T));
+    Fnv1a::add(&pod, sizeof(T));
   }
 };
 

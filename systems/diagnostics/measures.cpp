@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "nucleon/hash.h"
+
 namespace nucleon {
 
 StrainStats measureStrain(const StretchConstraints& constraints, std::span<const Vec3> x) {
@@ -110,17 +112,10 @@ double enclosedVolume(std::span<const std::array<Index, 3>> surface, std::span<c
 }
 
 std::uint64_t hashState(const ParticlePool& particles) {
-  std::uint64_t h = 14695981039346656037ull;
-  auto mix = [&](const void* data, std::size_t bytes) {
-    const auto* b = static_cast<const unsigned char*>(data);
-    for (std::size_t k = 0; k < bytes; ++k) {
-      h ^= b[k];
-      h *= 1099511628211ull;
-    }
-  };
-  mix(particles.x.data(), particles.x.size() * sizeof(Vec3));
-  mix(particles.v.data(), particles.v.size() * sizeof(Vec3));
-  return h;
+  Fnv1a hash;
+  hash.add(particles.x.data(), particles.x.size() * sizeof(Vec3));
+  hash.add(particles.v.data(), particles.v.size() * sizeof(Vec3));
+  return hash.value;
 }
 
 }  // namespace nucleon
