@@ -777,8 +777,9 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
   if (top.has("solver")) {
     const Reader s = top.child("solver");
     s.allowOnly({"type", "iterations", "substeps", "relaxation", "sheet_relaxation",
-                 "chebyshev_rho", "sweeps_per_level", "cascade_every", "smoother", "schedule",
-                 "max_kinematic_travel", "max_impact_travel", "max_substeps"});
+                 "chebyshev_rho", "sweeps_per_level", "cascade_every", "cascade_relaxation",
+                 "smoother", "schedule", "max_kinematic_travel", "max_impact_travel",
+                 "max_substeps"});
     const std::string type = s.string("type", toString(scene.solver.kind));
     if (!parseSolverKind(type, scene.solver.kind))
       s.fail(s.at("type"), "unknown solver '" + type + "'");
@@ -799,6 +800,8 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
         static_cast<Real>(s.number("chebyshev_rho", scene.solver.chebyshevRho, 0, 0.9999));
     if (s.has("sweeps_per_level")) scene.solver.sweepsPerLevel = s.levelSweeps("sweeps_per_level");
     scene.solver.cascadeEvery = s.integer("cascade_every", scene.solver.cascadeEvery, 0, 100000);
+    scene.solver.cascadeRelaxation =
+        static_cast<Real>(s.number("cascade_relaxation", scene.solver.cascadeRelaxation, 1, 1.99));
     if (s.has("smoother")) {
       const std::string smoother = s.string("smoother", "");
       if (!parseSolverKind(smoother, scene.solver.smoother) ||

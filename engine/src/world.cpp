@@ -590,6 +590,9 @@ void World::setSolver(const SolverSettings& settings) {
     require(sweeps >= 0 && sweeps <= 1000, "sweeps per level must be in [0, 1000]");
   require(settings.cascadeEvery >= 0 && settings.cascadeEvery <= 100000,
           "cascade_every must be in [0, 100000]");
+  require(std::isfinite(settings.cascadeRelaxation) && settings.cascadeRelaxation >= 1 &&
+              settings.cascadeRelaxation < 2,
+          "cascade_relaxation must be in [1, 2)");
   require(settings.smoother == SolverKind::GaussSeidel || settings.smoother == SolverKind::Jacobi ||
               settings.smoother == SolverKind::ColoredGaussSeidel,
           "the multigrid smoother must be gauss-seidel, jacobi or colored-gs");

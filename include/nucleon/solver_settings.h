@@ -65,6 +65,15 @@ struct SolverSettings {
   // it is small: a level has a quarter of the particles of the one below, so sixteen sweeps of
   // level 3 cost what one of level 1 does. Empty, or 0 for level 1: no cascade.
   std::vector<int> sweepsPerLevel = {1, 4, 16, 32};
+  // Multigrid: the over-relaxation ω in [1, 2) of the cascade's coarse sweeps (successive
+  // over-relaxation of their Gauss–Seidel sweeps: each coarse step is ω times the plain PBD
+  // step). A coarse level's job is to carry a correction far in few sweeps, which
+  // over-relaxation speeds up; 1 is the plain cascade. Measured (bench/results/2core-AMD-EPYC/
+  // solver_speed.md §15): at 1.5 hanging cloths end with less strain at the same cost, and a
+  // cloth draped on a sphere too; but the cascade does not see attachments, and over-relaxed it
+  // pulls a cloth away from its handles harder (the banner of attachments.json lagged its pulled
+  // handle by 15 mm instead of 6), so the default stays 1 and the hanging-cloth scenes set 1.5.
+  Real cascadeRelaxation = 1;
   // Multigrid: the cascade also runs again after every `cascadeEvery` fine sweep rounds (0: only
   // before the first), each time from the positions the fine sweeps left.
   int cascadeEvery = 0;

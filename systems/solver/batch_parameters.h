@@ -31,6 +31,9 @@ struct BatchColumns {
 template <std::size_t N>
 struct InPlaceBatch : BatchColumns<N> {
   Vec3* positions = nullptr;
+  // Hard distance batches (no multipliers: the cascade's coarse limits): every step scaled by ω,
+  // successive over-relaxation of the Gauss–Seidel sweep (SolverSettings::cascadeRelaxation).
+  Real relaxation = 1;
   const Real* inverseMass = nullptr;  // per particle (distance batches without endInverseMass)
   // The inverse masses of each constraint's particles in pool order (the pool's endInverseMass):
   // contiguous loads instead of one per particle. The angular batches need it.

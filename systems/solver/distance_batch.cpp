@@ -28,6 +28,7 @@ using distance_lanes::multiplierScale;
   alignas(32) float ax[8], ay[8], az[8], bx[8], by[8], bz[8];
   alignas(32) int ia[8], ib[8];
   const bool hard = b.lambda == nullptr;  // no compliances, no multipliers
+  const __m256 omega = _mm256_set1_ps(hard ? b.relaxation : 1.0f);
   Index k = begin;
   for (; k + 8 <= end; k += 8) {
     const auto* pairs = reinterpret_cast<const __m256i*>(b.particles + k);
@@ -60,7 +61,9 @@ using distance_lanes::multiplierScale;
                                          hard ? zero : _mm256_loadu_ps(b.compressionCompliance + k),
                                          lambda, wa, wb, inverseH2, b.unilateral);
     if (!hard) _mm256_storeu_ps(b.lambda + k, _mm256_fmadd_ps(scale, length, lambda));
-    const __m256 sa = _mm256_mul_ps(wa, scale), sb = _mm256_mul_ps(wb, scale);
+    // ω = 1 multiplies exactly: the plain step's bits.
+    const __m256 sa = _mm256_mul_ps(wa, _mm256_mul_ps(omega, scale)),
+                 sb = _mm256_mul_ps(wb, _mm256_mul_ps(omega, scale));
     _mm256_store_ps(ax, _mm256_fmadd_ps(sa, dx, xa));
     _mm256_store_ps(ay, _mm256_fmadd_ps(sa, dy, ya));
     _mm256_store_ps(az, _mm256_fmadd_ps(sa, dz, za));

@@ -24,9 +24,10 @@ bool cascades(const ObjectHierarchy& hierarchy, std::span<const ObjectRecord> ob
 }
 
 // One unilateral limit |p_i − p_j| ≤ L: only a stretched edge is projected, by the PBD step
-// Δp_i = −w_i/(w_i + w_j) (|d| − L) d/|d| with d = p_i − p_j (Müller 2008: coarse constraints grip
-// only when the material between the two particles is fully stretched).
-void projectLimit(ParticlePool& particles, const std::array<Index, 2>& edge, Real rest) {
+// Δp_i = −ω w_i/(w_i + w_j) (|d| − L) d/|d| with d = p_i − p_j (Müller 2008: coarse constraints
+// grip only when the material between the two particles is fully stretched), over-relaxed by ω.
+void projectLimit(ParticlePool& particles, const std::array<Index, 2>& edge, Real rest,
+                  Real relaxation) {
   const Index i = edge[0], j = edge[1];
   const Real wi = particles.w[i], wj = particles.w[j];
   const Real wSum = wi + wj;
@@ -34,7 +35,7 @@ void projectLimit(ParticlePool& particles, const std::array<Index, 2>& edge, Rea
   const Vec3 d = particles.p[i] - particles.p[j];
   const Real length = d.norm();
   if (!(length > rest)) return;  // also skips a non-finite length
-  const Vec3 correction = (length - rest) / (wSum * length) * d;
+  const Vec3 correction = relaxation * (length - rest) / (wSum * length) * d;
   particles.p[i] -= wi * correction;
   particles.p[j] += wj * correction;
 }
@@ -75,24 +76,26 @@ void forEachIndex(std::size_t count, bool serial, std::size_t grain, F&& f) {
 
 // Edges [begin, end) of one color: eight at a time where the AVX2 batch runs (the same PBD step,
 // without multipliers), the rest one by one.
-void sweepEdges(const HierarchyLevel& level, const Real* limit, ParticlePool& particles,
-                Index begin, Index end) {
+void sweepEdges(const HierarchyLevel& level, const Real* limit, Real relaxation,
+                ParticlePool& particles, Index begin, Index end) {
   DistanceBatch batch;
+  batch.relaxation = relaxation;
   batch.particles = level.edges.data();
   batch.rest = limit;
   batch.positions = particles.p.data();
   batch.inverseMass = particles.w.data();
   batch.unilateral = true;
   for (Index e = projectDistanceBatches(batch, begin, end); e != end; ++e)
-    projectLimit(particles, level.edges[e], limit[e]);
+    projectLimit(particles, level.edges[e], limit[e], relaxation);
 }
 
-void sweepLevel(const HierarchyLevel& level, const Real* limit, ParticlePool& particles) {
+void sweepLevel(const HierarchyLevel& level, const Real* limit, Real relaxation,
+                ParticlePool& particles) {
   const bool serial = level.edges.size() < kSerialEdges;
   for (std::size_t c = 0; c < level.colorCount(); ++c) {
     const Index begin = level.colorOffset[c], end = level.colorOffset[c + 1];
     if (serial) {
-      sweepEdges(level, limit, particles, begin, end);
+      sweepEdges(level, limit, relaxation, particles, begin, end);
       continue;
     }
     // Pieces of whole batches: which edges the AVX2 batch takes, and which the scalar remainder
@@ -102,7 +105,7 @@ void sweepLevel(const HierarchyLevel& level, const Real* limit, ParticlePool& pa
     tbb::parallel_for(
         tbb::blocked_range<Index>(0, batches, kEdgeGrain / kDistanceBatchSize),
         [&](const tbb::blocked_range<Index>& r) {
-          sweepEdges(level, limit, particles, begin + r.begin() * kDistanceBatchSize,
+          sweepEdges(level, limit, relaxation, particles, begin + r.begin() * kDistanceBatchSize,
                      std::min(end, begin + r.end() * kDistanceBatchSize));
         },
         tbb::static_partitioner());
@@ -318,7 +321,7 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
                                 std::span<const ObjectRecord> objects, ParticlePool& particles,
                                 CascadeScratch& scratch, std::span<const int> sweepsPerLevel,
                                 CascadeHook afterLevel, void* context,
-                                const CascadeContacts& contacts) {
+                                const CascadeContacts& contacts, Real relaxation) {
   if (sweepsOfLevel(sweepsPerLevel, 1) <= 0) return 0;
   std::vector<Vec3>& start = scratch.start;
   start.resize(particles.size());
@@ -370,7 +373,7 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
           if (scratch.supportId[i] != kNoSupport && !(scratch.supportId[i] & kMeshSupport))
             onSpheres.push_back(i);
       for (int k = 0; k < sweeps; ++k) {
-        sweepLevel(level, limit, particles);
+        sweepLevel(level, limit, relaxation, particles);
         // After the last sweep the hook settles every contact of the level's particles.
         if (!limits || k + 1 == sweeps) continue;
         keepOnMeshes(level, scratch, particles);

@@ -42,8 +42,9 @@ namespace nucleon {
 // would have at rest length, when that is shorter than the rest distance); one whose two particles
 // rest on the same sphere or static mesh where it curves away between them, with at most the chord
 // of an arc of rest length turning as the surface's normals turn; the others with their rest
-// distance; `scratch` holds those limits and the cascade's start positions. Returns the coarse-edge
-// projections and tether projections performed.
+// distance; `scratch` holds those limits and the cascade's start positions. Every coarse step is
+// over-relaxed by `relaxation` (ω in [1, 2): SolverSettings::cascadeRelaxation). Returns the
+// coarse-edge projections and tether projections performed.
 enum class CascadeMoment { BetweenSweeps, AfterLevel, AfterCascade };
 using CascadeHook = void (*)(void* context, std::span<const Index> moved, CascadeMoment moment);
 
@@ -61,7 +62,7 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
                                 std::span<const ObjectRecord> objects, ParticlePool& particles,
                                 CascadeScratch& scratch, std::span<const int> sweepsPerLevel,
                                 CascadeHook afterLevel = nullptr, void* context = nullptr,
-                                const CascadeContacts& contacts = {});
+                                const CascadeContacts& contacts = {}, Real relaxation = 1);
 
 // The coarse-edge projections one cascade performs (for throughput and work figures).
 std::size_t cascadeProjections(const LevelHierarchies& hierarchies,

@@ -29,6 +29,7 @@ SolveSettings solveSettingsOf(const SolverSettings& solver) {
       solver.kind == SolverKind::Multigrid && sweepsOfLevel(solver.sweepsPerLevel, 1) > 0;
   settings.cascadeEvery = solver.cascadeEvery;
   settings.sweepsPerLevel = solver.sweepsPerLevel;
+  settings.cascadeRelaxation = solver.cascadeRelaxation;
   return settings;
 }
 
@@ -81,7 +82,8 @@ void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepC
         }
         projectContactsOf(solvePools.contacts, solvePools.colliders, solvePools.particles, moved);
       },
-      &pools, {&pools.contacts, &pools.colliders, &pools.primitiveContacts});
+      &pools, {&pools.contacts, &pools.colliders, &pools.primitiveContacts},
+      settings.cascadeRelaxation);
   if (pools.colliders.size() > 0 &&
       contactsMissing(pools.contacts, pools.colliders, pools.particles)) {
     detectContacts(pools.contacts, pools.colliders, pools.particles, context.h, pools.particles.p);

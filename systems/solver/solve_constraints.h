@@ -42,6 +42,7 @@ struct SolveSettings {
   bool cascade = false;
   int cascadeEvery = 0;
   std::span<const int> sweepsPerLevel;
+  Real cascadeRelaxation = 1;  // ω of the coarse sweeps
 };
 // Refers to solver.sweepsPerLevel: the settings live as long as `solver`.
 SolveSettings solveSettingsOf(const SolverSettings& solver);
