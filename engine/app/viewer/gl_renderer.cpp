@@ -113,6 +113,9 @@ std::array<float, 16> Camera::viewProjection(double aspect) const {
 }
 
 GlRenderer::GlRenderer() {
+  const ObjectDef unitSphere = icosphere(Vec3::Zero(), 1, 3);
+  for (const auto& t : unitSphere.triangles)
+    for (Index v : t) unitSphereCorners_.push_back(unitSphere.vertices[v].normalized());
   const unsigned vs = compile(GL_VERTEX_SHADER, kVertexShader);
   const unsigned fs = compile(GL_FRAGMENT_SHADER, kFragmentShader);
   program_ = glCreateProgram();
@@ -187,13 +190,9 @@ void GlRenderer::draw(const SceneSnapshot& scene, const Camera& camera, int widt
   if (options.contacts)
     for (const Vec3& p : scene.contactPoints) push(points_, p, Vec3::UnitY(), {0.2f, 0.95f, 0.3f});
   if (options.colliders)
-    for (const SphereCollider& sphere : scene.spheres) {
-      const ObjectDef ball = icosphere(sphere.center, sphere.radius, 3);
-      for (const auto& t : ball.triangles)
-        for (Index v : t)
-          push(triangles_, ball.vertices[v], (ball.vertices[v] - sphere.center).normalized(),
-               {0.62f, 0.62f, 0.6f});
-    }
+    for (const SphereCollider& sphere : scene.spheres)
+      for (const Vec3& u : unitSphereCorners_)
+        push(triangles_, sphere.center + sphere.radius * u, u, {0.62f, 0.62f, 0.6f});
   if (options.ground && scene.ground.enabled) {
     // A checkered square around the target, two triangles per cell.
     const float y = float(scene.ground.height), cell = 0.5f;

@@ -45,6 +45,9 @@ class GlRenderer {
   unsigned program_ = 0, vao_ = 0, vbo_ = 0;
   int viewProjection_ = -1, eye_ = -1, pointSize_ = -1, lit_ = -1;
   std::vector<Vertex> triangles_, lines_, points_;
+  // A sphere collider's mesh, the unit icosphere's triangle corners in draw order (each corner is
+  // its own normal), built once and scaled and moved per sphere per frame.
+  std::vector<Vec3> unitSphereCorners_;
 };
 
 }  // namespace nucleon::viewer
