@@ -169,11 +169,11 @@ TEST(Multigrid, JacobiSmootherIsDeterministicAndBeatsPlainJacobi) {
 // The cascade's over-relaxation (solver.cascade_relaxation): each coarse step ω times the plain
 // PBD step. A coarse level exists to carry a correction across the cloth in few sweeps, which
 // over-relaxed Gauss–Seidel does in fewer. On the 64² hang, 30 steps, 10 fine sweeps: ω = 1.5
-// must do exactly the work of the default ω = 1 (the same projections), leave no more mean and
-// p99 strain (measured 0.198% and 1.21% against 0.211% and 1.30%), and give the same state at 1
-// and 2 threads. The max strain is not asserted: one edge's stretch after one step swings from
-// step to step as the cloth whips (here 3.07% against 2.82%; over frames 61–120 of the 128² hang
-// the median frame's max is lower at ω = 1.5, solver_speed.md §15).
+// must do exactly the work of the default ω = 1 (the same projections), leave less mean and p99
+// strain (measured 0.198% and 1.21% against 0.211% and 1.30%, 6–7% less), and give the same
+// state at 1 and 2 threads. The max strain is not asserted: one edge's stretch after one step
+// swings from step to step as the cloth whips (here 3.07% against 2.82%; over frames 61–120 of the
+// 128² hang the median frame's max is lower at ω = 1.5, solver_speed.md §15).
 TEST(Multigrid, OverRelaxedCascadeLeavesLessStrainForTheSameWork) {
   auto run = [](Real relaxation, int threads) {
     World world = test::hangingCloth(64, 10, 1, threads);
@@ -193,8 +193,8 @@ TEST(Multigrid, OverRelaxedCascadeLeavesLessStrainForTheSameWork) {
   EXPECT_EQ(plain.hash, hang(SolverKind::Multigrid, 10, 30, 0, 2).hash);  // the default
   EXPECT_EQ(relaxed.projections, plain.projections);
   EXPECT_EQ(relaxed.recoveries, 0u);
-  EXPECT_LE(relaxed.measures.meanStrain, plain.measures.meanStrain);
-  EXPECT_LE(relaxed.measures.strainP99, plain.measures.strainP99);
+  EXPECT_LT(relaxed.measures.meanStrain, plain.measures.meanStrain);
+  EXPECT_LT(relaxed.measures.strainP99, plain.measures.strainP99);
   SolverSettings bad = test::solverSettings(SolverKind::Multigrid, 10, 1);
   World world;
   for (const Real omega : {Real(0.9), Real(2), std::numeric_limits<Real>::quiet_NaN()}) {

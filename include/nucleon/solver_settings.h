@@ -72,7 +72,8 @@ struct SolverSettings {
   // solver_speed.md §15): at 1.5 hanging cloths end with less strain at the same cost, and a
   // cloth draped on a sphere too; but the cascade does not see attachments, and over-relaxed it
   // pulls a cloth away from its handles harder (the banner of attachments.json lagged its pulled
-  // handle by 15 mm instead of 6), so the default stays 1 and the hanging-cloth scenes set 1.5.
+  // handle by 15 mm instead of 6), so the default stays 1 and the fast hanging-cloth scenes
+  // (cloth_hang_128_fast, cloth_hang_256_fast) set 1.5.
   Real cascadeRelaxation = 1;
   // Multigrid: the cascade also runs again after every `cascadeEvery` fine sweep rounds (0: only
   // before the first), each time from the positions the fine sweeps left.
