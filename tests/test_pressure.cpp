@@ -57,7 +57,7 @@ double membraneVirtualWork(const World& world, ObjectId id, const ObjectDef& def
 // soft enough (α/h² of the order of its particles' inverse mass) for 20 sweeps of the Gauss–Seidel
 // family to converge; Jacobi, which converges more slowly per sweep, takes 200 (at 100 it was 11%
 // off). One second is past the damped membrane's settling (the same figures after four). 2% is
-// the tolerance; measured: 0.2% (multigrid, colored-gs) and 1.0% (Jacobi).
+// the required tolerance; measured: 0.2% (multigrid, colored-gs) and 1.0% (Jacobi).
 TEST(Pressure, AGasBalancesItsMembraneByVirtualWorkInEveryBackend) {
   std::vector<std::pair<SolverKind, int>> backends = {
       {SolverKind::Multigrid, 20}, {SolverKind::ColoredGaussSeidel, 20}, {SolverKind::Jacobi, 200}};
@@ -116,7 +116,7 @@ ObjectDef squeezingPlate(double travel) {
 }  // namespace
 
 // A balloon resting on the ground is squeezed by a plate to 60% of its height and held there:
-// 500 steps in all. Kept at its volume, the volume stays within 1% (the bound) at every
+// 500 steps in all. Kept at its volume, the volume stays within 1% (the required bound) at every
 // step; a gas at atmospheric pressure with no pump and no leak keeps its amount, and its volume
 // stays within 1% too: the squeeze raises its pressure by well under 1% of an atmosphere (the
 // membrane gives way sideways long before), so Boyle's law leaves the volume where it was.

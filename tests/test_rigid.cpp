@@ -64,7 +64,7 @@ TEST(Rigidity, PolarRotationIsTheNearestRotation) {
 
 // A rigid box (0.3 m, 56 particles) dropped tilted from 0.5 m onto the ground bounces, tumbles and
 // settles within the first second. After its impacts its shape error is below 1e-3 of its radius
-// at every frame end (the bound; measured 1.3e-4). In the frame of an impact it is larger:
+// at every frame end (the required bound; measured 1.3e-4). In the frame of an impact it is larger:
 // the ground's contacts are projected particle by particle after each round's shape matching, and
 // the last round's leave the struck corner pushed in by what the rounds have not yet carried to
 // the whole body (measured 1.7e-2 of the radius with 10 sweeps, 5.3e-3 with 40; bound 2e-2). It
@@ -100,7 +100,7 @@ TEST(Rigidity, ARigidBoxKeepsItsShapeThroughItsImpacts) {
 // Two rigid balls in zero gravity, one at 1.5 m/s striking the other at rest off-centre: the
 // contacts push both ways with the particles' masses and shape matching moves each ball's
 // particles as one body, so the total linear momentum after the impact is within 1% of what it
-// was (the bound), and the struck ball carries a good part of it away. Measured: 3e-6 in
+// was (the required bound), and the struck ball carries a good part of it away. Measured: 3e-6 in
 // the serial Gauss–Seidel backend, whose contacts are projected one by one; 0.54% in the parallel
 // backends (multigrid, colored-gs, Jacobi), whose contact rounds move each particle by the mean of
 // its pressed contacts' corrections (not exactly opposite for the two sides) and whose fail-safe
