@@ -39,6 +39,19 @@ Outcome hang(SolverKind kind, int iterations, int steps, Real stretchCompliance 
           world.recoveries().total()};
 }
 
+// The 64² hang under multigrid with `iterations` fine sweeps, 30 steps, the settings changed by
+// `adjust` first.
+template <class Adjust>
+Outcome hangMultigrid(int iterations, int threads, Adjust&& adjust) {
+  World world = test::hangingCloth(64, iterations, 1, threads);
+  SolverSettings settings = test::solverSettings(SolverKind::Multigrid, iterations, 1);
+  adjust(settings);
+  world.setSolver(settings);
+  test::simulate(world, 30);
+  return {world.measure(), world.profile().projections, world.stateHash(),
+          world.recoveries().total()};
+}
+
 // A 64² cloth hung from two corners, 30 steps: multigrid with 10 fine sweeps plus its cascade
 // against colored Gauss–Seidel with 14 sweeps. The cascade costs about 1.4 fine sweeps (a
 // coarse level has a quarter of the particles and both diagonals per cell, swept 4 times), so
@@ -105,13 +118,7 @@ TEST(Multigrid, SameStateForOneAndTwoThreads) {
 // the strain is no higher than with one cascade (measured: lower in mean and p99).
 TEST(Multigrid, RepeatedCascadeIsDeterministicAndCounted) {
   auto run = [](int every, int threads) {
-    World world = test::hangingCloth(64, 8, 1, threads);
-    SolverSettings settings = test::solverSettings(SolverKind::Multigrid, 8, 1);
-    settings.cascadeEvery = every;
-    world.setSolver(settings);
-    test::simulate(world, 30);
-    return Outcome{world.measure(), world.profile().projections, world.stateHash(),
-                   world.recoveries().total()};
+    return hangMultigrid(8, threads, [&](SolverSettings& s) { s.cascadeEvery = every; });
   };
   const Outcome once = run(0, 2), repeated = run(2, 2), repeatedOne = run(2, 1);
   const Outcome noCascade = [] {
@@ -177,13 +184,7 @@ TEST(Multigrid, JacobiSmootherIsDeterministicAndBeatsPlainJacobi) {
 // lower at ω = 1.5, solver_speed.md §15).
 TEST(Multigrid, OverRelaxedCascadeLeavesLessStrainForTheSameWork) {
   auto run = [](Real relaxation, int threads) {
-    World world = test::hangingCloth(64, 10, 1, threads);
-    SolverSettings settings = test::solverSettings(SolverKind::Multigrid, 10, 1);
-    settings.cascadeRelaxation = relaxation;
-    world.setSolver(settings);
-    test::simulate(world, 30);
-    return Outcome{world.measure(), world.profile().projections, world.stateHash(),
-                   world.recoveries().total()};
+    return hangMultigrid(10, threads, [&](SolverSettings& s) { s.cascadeRelaxation = relaxation; });
   };
   const Outcome plain = run(1, 2), relaxed = run(Real(1.5), 2), relaxedOne = run(Real(1.5), 1);
   std::printf("mean / p99 / max strain: omega 1 %.5f / %.5f / %.5f, omega 1.5 %.5f / %.5f / %.5f\n",
