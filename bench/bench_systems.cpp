@@ -1,8 +1,8 @@
 // Per-system micro benchmarks. Sizes follow the square cloths of 64², 128² and 256² vertices:
 //  - BM_Sweep: one sweep of one constraint family with one backend at 1 and 2 threads, in
 //    constraint projections per second, every sweep from the same predicted state. Stretch,
-//    shear, bend and tethers run on the hanging cloth; volume on a tetrahedral box and curve
-//    bend / twist on a helix of about the same particle count.
+//    shear, bend (dihedral and isometric) and tethers run on the hanging cloth; volume on a
+//    tetrahedral box and curve bend / twist on a helix of about the same particle count.
 //  - BM_Residual: the strain left after k sweeps of the stretch family from the same predicted
 //    state, per backend (convergence per sweep; with the time, convergence per millisecond).
 //  - BM_Cascade: one multigrid coarse-to-fine cascade (every coarse level's sweeps, tethers and
@@ -42,19 +42,20 @@ using namespace nucleon;
 
 constexpr Real kH = Real(1) / 60;
 
-enum class Subject { Stretch, Shear, ClothBend, Volume, CurveBend, Twist, Tether };
+enum class Subject { Stretch, Shear, ClothBend, Volume, CurveBend, Twist, Tether, IsometricBend };
 const char* subjectName(Subject s) {
   constexpr const char* names[] = {"stretch",    "shear", "cloth-bend", "volume",
-                                   "curve-bend", "twist", "tether"};
+                                   "curve-bend", "twist", "tether",     "cloth-bend-isometric"};
   return names[static_cast<int>(s)];
 }
 
-World hangingCloth(int n, bool shearAndBend) {
+World hangingCloth(int n, bool shearAndBend, BendModel bendModel = BendModel::Dihedral) {
   GridSpec spec;
   spec.resolution = {n, n};
   ObjectDef cloth = gridCloth(spec);
   cloth.pins = {0, static_cast<Index>(n - 1)};
   cloth.material.shear = cloth.material.bending = shearAndBend;
+  cloth.material.bendModel = bendModel;
   World world;
   world.addCloth(cloth);
   return world;
@@ -79,7 +80,8 @@ World worldFor(Subject subject, int n) {
   } else if (subject == Subject::Tether) {
     world = hangingCloth(n, false);  // tethers need no shear or bend, whose steps are slow
   } else {
-    world = hangingCloth(n, true);
+    world = hangingCloth(
+        n, true, subject == Subject::IsometricBend ? BendModel::Isometric : BendModel::Dihedral);
   }
   return world;
 }
@@ -181,13 +183,16 @@ void BM_Sweep(benchmark::State& state) {
     case Subject::Tether:
       sweepLoop<TetherKernel>(state, pools.tether, s, kind, threads);
       break;
+    case Subject::IsometricBend:
+      sweepLoop<IsometricBendKernel>(state, pools.isometricBend, s, kind, threads);
+      break;
   }
   state.SetLabel(std::string(subjectName(subject)) + " " + toString(kind));
 }
 
 // Every subject × size × backend, at 1 and 2 threads (Gauss–Seidel is sequential: 1 only).
 void sweepArguments(benchmark::internal::Benchmark* b) {
-  for (int subject = 0; subject <= static_cast<int>(Subject::Tether); ++subject)
+  for (int subject = 0; subject <= static_cast<int>(Subject::IsometricBend); ++subject)
     for (int n : {64, 128, 256})
       for (SolverKind kind :
            {SolverKind::GaussSeidel, SolverKind::Jacobi, SolverKind::ColoredGaussSeidel})

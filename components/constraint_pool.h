@@ -36,6 +36,9 @@ struct ConstraintSettings : ConstraintParameters {
   static constexpr std::size_t kArity = N;
   std::vector<std::array<Index, N>> particles;  // global particle indices, kernel order
   std::vector<Real> rest;                       // C's rest value from the object's rest shape
+  // Constant weights per constraint, for the kernels that take them (IsometricBendKernel: one
+  // per particle); empty in every other pool.
+  std::vector<std::array<Real, N>> weights;
 };
 
 // What the backends derive for a pool of any arity.
@@ -93,6 +96,7 @@ struct ConstraintPool : ConstraintSettings<N>, BuiltinSolveState<N> {
     apply(this->compressionCompliance);
     apply(this->damping);
     apply(this->lambda);
+    if (!this->weights.empty()) apply(this->weights);
   }
 
   // Keeps the constraints c for which keep(c) holds, in their order (a tear or a removed object
@@ -108,6 +112,7 @@ struct ConstraintPool : ConstraintSettings<N>, BuiltinSolveState<N> {
       this->compressionCompliance[kept] = this->compressionCompliance[c];
       this->damping[kept] = this->damping[c];
       this->lambda[kept] = this->lambda[c];
+      if (!this->weights.empty()) this->weights[kept] = this->weights[c];
       ++kept;
     }
     this->particles.resize(kept);
@@ -116,6 +121,7 @@ struct ConstraintPool : ConstraintSettings<N>, BuiltinSolveState<N> {
     this->compressionCompliance.resize(kept);
     this->damping.resize(kept);
     this->lambda.resize(kept);
+    if (!this->weights.empty()) this->weights.resize(kept);
   }
 
   void append(const std::array<Index, N>& p, Real restValue, Real alpha, Real alphaCompression,
@@ -126,6 +132,13 @@ struct ConstraintPool : ConstraintSettings<N>, BuiltinSolveState<N> {
     this->compressionCompliance.push_back(alphaCompression);
     this->damping.push_back(dampingTime);
     this->lambda.push_back(0);
+  }
+
+  // The same for a pool whose kernel takes weights (every constraint of it has them).
+  void append(const std::array<Index, N>& p, Real restValue, Real alpha, Real alphaCompression,
+              Real dampingTime, const std::array<Real, N>& constraintWeights) {
+    append(p, restValue, alpha, alphaCompression, dampingTime);
+    this->weights.push_back(constraintWeights);
   }
 };
 

@@ -479,6 +479,7 @@ SceneObject readObject(const Reader& o, const std::string& folder,
                  "stretch_compliance",
                  "compression_compliance",
                  "bend_compliance",
+                 "bend_model",
                  "shear_compliance",
                  "twist_compliance",
                  "volume_compliance",
@@ -504,6 +505,13 @@ SceneObject readObject(const Reader& o, const std::string& folder,
     mat.thickness = static_cast<Real>(m.number("thickness", mat.thickness, 0, 1e3));
     mat.bending = m.has("bend_compliance");
     mat.bendCompliance = static_cast<Real>(m.number("bend_compliance", 0, 0, 1e6));
+    const std::string bendModel = m.string("bend_model", "dihedral");
+    if (bendModel == "dihedral")
+      mat.bendModel = BendModel::Dihedral;
+    else if (bendModel == "isometric")
+      mat.bendModel = BendModel::Isometric;
+    else
+      m.fail(m.at("bend_model"), "expected dihedral or isometric, got '" + bendModel + "'");
     mat.shear = m.has("shear_compliance");
     mat.shearCompliance = static_cast<Real>(m.number("shear_compliance", 0, 0, 1e6));
     mat.twist = m.has("twist_compliance");

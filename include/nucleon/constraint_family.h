@@ -26,21 +26,23 @@
 //   hinges and angles), kVertexJacobi (the vertex-centric Jacobi
 //   sweep of hard distance constraints), kTetherLayers (the tethers' own sweep by vertex), or
 //   kGenericSweep alone.
-// A family may own several pools: bend is the dihedral angle of cloth hinges and the angle
-// between rope segments. A family with no pools here is a constraint on many particles at once
-// with a pool and a system of its own, projected when the plan sweeps it: pressure (one volume
-// constraint per closed surface, systems/solver/pressure.h), attachment (nConstraints between
-// objects, to surfaces and to handles, systems/solver/attachments.h) and rigidity (one shape
-// matching cluster per object, systems/solver/shape_matching.h) and density (one SPH density
-// constraint per liquid particle, systems/liquid/density_constraints.h). Only the library expands
-// `pools`; the public expansions ignore them.
+// A family may own several pools: bend is the dihedral angle of cloth hinges (or its isometric
+// form, Material::bendModel) and the angle between rope segments. A family with no pools here is a
+// constraint on many particles at once with a pool and a system of its own, projected when the plan
+// sweeps it: pressure (one volume constraint per closed surface, systems/solver/pressure.h),
+// attachment (nConstraints between objects, to surfaces and to handles,
+// systems/solver/attachments.h) and rigidity (one shape matching cluster per object,
+// systems/solver/shape_matching.h) and density (one SPH density constraint per liquid particle,
+// systems/liquid/density_constraints.h). Only the library expands `pools`; the public expansions
+// ignore them.
 #define NUCLEON_CONSTRAINT_FAMILIES(X)                                                            \
   X(Stretch, "stretch", NUCLEON_POOL(stretch, 2, DistanceKernel, kDistanceBatch | kVertexJacobi)) \
   X(Tether, "tether", NUCLEON_POOL(tether, 2, TetherKernel, kTetherLayers))                       \
   X(Shear, "shear", NUCLEON_POOL(shear, 3, AngleKernel, kAngularBatch))                           \
   X(Bend, "bend",                                                                                 \
     NUCLEON_POOL(bend, 4, DihedralKernel, kAngularBatch)                                          \
-        NUCLEON_POOL(curveBend, 3, AngleKernel, kAngularBatch))                                   \
+        NUCLEON_POOL(isometricBend, 4, IsometricBendKernel, kAngularBatch)                        \
+            NUCLEON_POOL(curveBend, 3, AngleKernel, kAngularBatch))                               \
   X(Twist, "twist", NUCLEON_POOL(twist, 4, DihedralKernel, kAngularBatch))                        \
   X(Volume, "volume", NUCLEON_POOL(volume, 4, VolumeKernel, kGenericSweep))                       \
   X(Pressure, "pressure", )                                                                       \

@@ -27,6 +27,25 @@ void appendMeasured(ConstraintPool<N>& pool, const std::array<Index, N>& local,
   pool.append(global, Kernel::value(x, grad), compliance, compliance, damping);
 }
 
+// A hinge flat at rest in the isometric form (IsometricBendKernel); false, and nothing appended,
+// where its rest shape is bent (beyond 1e-3 rad, where C = 2 sin(|φ|/2) would no longer be zero
+// at rest: that hinge keeps the dihedral angle) or a triangle has no height over the edge.
+bool appendIsometric(ConstraintPool<4>& pool, const std::array<Index, 4>& local,
+                     std::span<const Vec3> rest, Index first, const Material& m) {
+  Points<4> x, grad;
+  std::array<Index, 4> global;
+  for (std::size_t k = 0; k < 4; ++k) {
+    x[k] = rest[local[k]];
+    global[k] = first + local[k];
+  }
+  std::array<Real, 4> weights;
+  if (std::abs(DihedralKernel::value(x, grad)) > Real(1e-3) ||
+      !IsometricBendKernel::weightsOf(x, weights))
+    return false;
+  pool.append(global, 0, m.bendCompliance, m.bendCompliance, m.damping, weights);
+  return true;
+}
+
 // The vertex of triangle t that is neither a nor b.
 Index opposite(const Simplex<2>& t, Index a, Index b) {
   for (Index v : t)
@@ -64,6 +83,9 @@ void appendClothConstraints(ConstraintPools& pools, const SimplicialComplex& c,
     const bool firstForward = parents[0].sign > 0;
     const Index x2 = opposite(c.triangles.vertices[parents[firstForward ? 0 : 1].face], a, b);
     const Index x3 = opposite(c.triangles.vertices[parents[firstForward ? 1 : 0].face], a, b);
+    if (m.bendModel == BendModel::Isometric &&
+        appendIsometric(pools.isometricBend, {a, b, x2, x3}, rest, first, m))
+      continue;
     appendMeasured<DihedralKernel>(pools.bend, {a, b, x2, x3}, rest, first, m.bendCompliance,
                                    m.damping);
   }

@@ -111,6 +111,29 @@ struct HingeLanes {
   }
 };
 
+// The isometric hinge (IsometricBendKernel): v = Σ_k k_k x_k with the constraint's weights k,
+// C = ‖v‖ in `angle`, ∇_x_k C = k_k v/‖v‖; a flat hinge (‖v‖² below 1e-24) has no gradient.
+// No normals, no arctangent, one division.
+struct IsometricBendLanes {
+  static constexpr int kArity = 4;
+  static constexpr bool kWeighted = true;
+  NUCLEON_LANES static AngleLanes<4> evaluate(const Lane3* x, const __m256* k) {
+    const __m256 one = _mm256_set1_ps(1.0f);
+    Lane3 v = scale(x[0], k[0]);
+    for (int c = 1; c < 4; ++c)
+      v = {_mm256_fmadd_ps(x[c].x, k[c], v.x), _mm256_fmadd_ps(x[c].y, k[c], v.y),
+           _mm256_fmadd_ps(x[c].z, k[c], v.z)};
+    const __m256 squared = dot(v, v);
+    AngleLanes<4> out;
+    out.valid = _mm256_cmp_ps(squared, _mm256_set1_ps(1e-24f), _CMP_GE_OQ);
+    out.angle = _mm256_sqrt_ps(squared);
+    const Lane3 direction =
+        scale(v, _mm256_div_ps(one, _mm256_blendv_ps(one, out.angle, out.valid)));
+    for (int c = 0; c < 4; ++c) out.gradient[c] = scale(direction, k[c]);
+    return out;
+  }
+};
+
 // The angle at x2 (AngleKernel): θ = atan2(‖û × v̂‖, û · v̂), u = x0 − x2, v = x1 − x2,
 //   ∇_x0 θ = −t_u/‖u‖, ∇_x1 θ = −t_v/‖v‖, ∇_x2 θ = −∇_x0 θ − ∇_x1 θ,
 // t_u = (v̂ − cos θ û)/sin θ and t_v likewise. A point on the other two (‖u‖ or ‖v‖ below 1e-12)
@@ -154,19 +177,22 @@ struct AngleLanesKernel {
 
 // The undamped XPBD step of an angle C = wrap(θ − θ0) with ∇θ from the lane kernel:
 //   Δλ = (−C − α̃λ) / (Σ_k w_k ‖∇_k θ‖² + α̃), zero in lanes without a gradient or a free particle.
-template <int N>
+// The isometric hinges' C is not an angle and is not wrapped (kWrap false).
+template <int N, bool kWrap = true>
 NUCLEON_LANES __m256 multiplierStep(const AngleLanes<N>& a, const __m256* w, __m256 rest,
                                     __m256 stretchCompliance, __m256 compressionCompliance,
                                     __m256 lambda, __m256 inverseH2) {
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
-  // C = θ − θ0 wrapped to (−π, π]: both lie in (−π, π], so one turn at most.
-  const __m256 pi = _mm256_set1_ps(3.14159265359f), twoPi = _mm256_set1_ps(6.28318530718f);
   __m256 constraint = _mm256_sub_ps(a.angle, rest);
-  constraint =
-      _mm256_sub_ps(constraint, _mm256_and_ps(_mm256_cmp_ps(constraint, pi, _CMP_GT_OQ), twoPi));
-  constraint = _mm256_add_ps(
-      constraint,
-      _mm256_and_ps(_mm256_cmp_ps(constraint, _mm256_sub_ps(zero, pi), _CMP_LE_OQ), twoPi));
+  if constexpr (kWrap) {
+    // C = θ − θ0 wrapped to (−π, π]: both lie in (−π, π], so one turn at most.
+    const __m256 pi = _mm256_set1_ps(3.14159265359f), twoPi = _mm256_set1_ps(6.28318530718f);
+    constraint =
+        _mm256_sub_ps(constraint, _mm256_and_ps(_mm256_cmp_ps(constraint, pi, _CMP_GT_OQ), twoPi));
+    constraint = _mm256_add_ps(
+        constraint,
+        _mm256_and_ps(_mm256_cmp_ps(constraint, _mm256_sub_ps(zero, pi), _CMP_LE_OQ), twoPi));
+  }
   const __m256 below = _mm256_cmp_ps(constraint, zero, _CMP_LT_OQ);
   const __m256 alpha =
       _mm256_mul_ps(_mm256_blendv_ps(stretchCompliance, compressionCompliance, below), inverseH2);
@@ -226,6 +252,25 @@ NUCLEON_LANES void loadMasses(const std::array<Real, N>* endInverseMass, Index k
   }
 }
 
+// A lane kernel's C and gradients for constraints k … k+7, with their weights where it takes
+// them, and its multiplier step.
+template <class Lanes>
+constexpr bool kWeightedLanes = requires {
+  Lanes::kWeighted;
+};
+
+template <class Lanes, std::size_t N>
+NUCLEON_LANES AngleLanes<Lanes::kArity> evaluateLanes(const BatchColumns<N>& b, Index k,
+                                                      const Lane3* x) {
+  if constexpr (kWeightedLanes<Lanes>) {
+    __m256 weights[N];
+    loadMasses(b.weights, k, weights);  // rows of N, transposed as the end masses are
+    return Lanes::evaluate(x, weights);
+  } else {
+    return Lanes::evaluate(x);
+  }
+}
+
 template <class Lanes>
 [[gnu::target(NUCLEON_LANE_TARGET)]] Index projectInPlace(const AngularBatch<Lanes::kArity>& b,
                                                           Index begin, Index end) {
@@ -238,10 +283,10 @@ template <class Lanes>
     __m256 w[n];
     loadMasses(b.endInverseMass, k, w);
     const __m256 lambda = _mm256_loadu_ps(b.lambda + k);
-    const AngleLanes<n> angle = Lanes::evaluate(x);
-    const __m256 deltaLambda =
-        multiplierStep(angle, w, _mm256_loadu_ps(b.rest + k), _mm256_loadu_ps(b.compliance + k),
-                       _mm256_loadu_ps(b.compressionCompliance + k), lambda, inverseH2);
+    const AngleLanes<n> angle = evaluateLanes<Lanes>(b, k, x);
+    const __m256 deltaLambda = multiplierStep<n, !kWeightedLanes<Lanes>>(
+        angle, w, _mm256_loadu_ps(b.rest + k), _mm256_loadu_ps(b.compliance + k),
+        _mm256_loadu_ps(b.compressionCompliance + k), lambda, inverseH2);
     _mm256_storeu_ps(b.lambda + k, _mm256_add_ps(lambda, deltaLambda));
     for (int c = 0; c < n; ++c) {
       const __m256 factor = _mm256_mul_ps(w[c], deltaLambda);
@@ -277,10 +322,10 @@ template <class Lanes>
     const __m256 stretchCompliance = _mm256_loadu_ps(b.compliance + k);
     const __m256 compressionCompliance = _mm256_loadu_ps(b.compressionCompliance + k);
     const __m256 lambda = _mm256_loadu_ps(b.lambda + k);
-    const AngleLanes<n> angle = Lanes::evaluate(x);
-    const __m256 deltaLambda =
-        multiplierStep(angle, w, _mm256_loadu_ps(b.rest + k), stretchCompliance,
-                       compressionCompliance, lambda, inverseH2);
+    const AngleLanes<n> angle = evaluateLanes<Lanes>(b, k, x);
+    const __m256 deltaLambda = multiplierStep<n, !kWeightedLanes<Lanes>>(
+        angle, w, _mm256_loadu_ps(b.rest + k), stretchCompliance, compressionCompliance, lambda,
+        inverseH2);
     // Hard constraints (both compliances 0) are accelerated on the accelerated sweeps.
     __m256 hard = _mm256_and_ps(_mm256_cmp_ps(stretchCompliance, zero, _CMP_EQ_OQ),
                                 _mm256_cmp_ps(compressionCompliance, zero, _CMP_EQ_OQ));
@@ -324,6 +369,14 @@ Index projectHingeJacobiBatches(const JacobiBatch<4>& batch, Index begin, Index 
   return projectJacobi<HingeLanes>(batch, begin, end);
 }
 
+Index projectIsometricBendBatches(const InPlaceBatch<4>& batch, Index begin, Index end) {
+  return projectInPlace<IsometricBendLanes>(batch, begin, end);
+}
+
+Index projectIsometricBendJacobiBatches(const JacobiBatch<4>& batch, Index begin, Index end) {
+  return projectJacobi<IsometricBendLanes>(batch, begin, end);
+}
+
 Index projectAngleBatches(const InPlaceBatch<3>& batch, Index begin, Index end) {
   return projectInPlace<AngleLanesKernel>(batch, begin, end);
 }
@@ -350,6 +403,15 @@ Index projectHingeBatches(const AngularBatch<4>& batch, Index begin, Index end) 
 
 Index projectHingeJacobiBatches(const AngularJacobiBatch<4>& batch, Index begin, Index end) {
   return NUCLEON_CALL_LANES(laneIsa(), projectHingeJacobiBatches, begin, batch, begin, end);
+}
+
+Index projectIsometricBendBatches(const AngularBatch<4>& batch, Index begin, Index end) {
+  return NUCLEON_CALL_LANES(laneIsa(), projectIsometricBendBatches, begin, batch, begin, end);
+}
+
+Index projectIsometricBendJacobiBatches(const AngularJacobiBatch<4>& batch, Index begin,
+                                        Index end) {
+  return NUCLEON_CALL_LANES(laneIsa(), projectIsometricBendJacobiBatches, begin, batch, begin, end);
 }
 
 Index projectAngleBatches(const AngularBatch<3>& batch, Index begin, Index end) {

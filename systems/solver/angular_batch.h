@@ -5,6 +5,8 @@
 //           φ = atan2((n1 × n2) · ê, n1 · n2),  ∇_x2 φ = −‖e‖ n1/‖n1‖²,  ∇_x3 φ = −‖e‖ n2/‖n2‖²,
 //           ∇_x0 φ = −(1 − s2) ∇_x2 φ − (1 − s3) ∇_x3 φ,  ∇_x1 φ = −s2 ∇_x2 φ − s3 ∇_x3 φ,
 //           s_k = (x_k − x0)·e/‖e‖²;
+//   isometric hinge (IsometricBendKernel, hinges flat at rest): C = ‖v‖, v = Σ_k k_k x_k with
+//           the constraint's weights k, ∇_x_k C = k_k v/‖v‖ (not wrapped: not an angle);
 //   angle:  θ = atan2(‖û × v̂‖, û · v̂),  u = x0 − x2,  v = x1 − x2,
 //           ∇_x0 θ = −t_u/‖u‖,  ∇_x1 θ = −t_v/‖v‖,  ∇_x2 θ = −∇_x0 θ − ∇_x1 θ,
 // then the undamped XPBD step (Macklin et al. 2016, eq. 18)
@@ -41,6 +43,8 @@ bool angularBatchesAvailable();
 // batched path is unavailable: then `begin`).
 Index projectHingeBatches(const AngularBatch<4>& batch, Index begin, Index end);
 Index projectHingeJacobiBatches(const AngularJacobiBatch<4>& batch, Index begin, Index end);
+Index projectIsometricBendBatches(const AngularBatch<4>& batch, Index begin, Index end);
+Index projectIsometricBendJacobiBatches(const AngularJacobiBatch<4>& batch, Index begin, Index end);
 Index projectAngleBatches(const AngularBatch<3>& batch, Index begin, Index end);
 Index projectAngleJacobiBatches(const AngularJacobiBatch<3>& batch, Index begin, Index end);
 

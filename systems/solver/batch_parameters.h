@@ -23,6 +23,8 @@ struct BatchColumns {
   Real* lambda = nullptr;
   Real inverseH2 = 0;       // 1/h²
   bool unilateral = false;  // tethers: only C > 0 is corrected (distance batches only)
+  // Each constraint's weights (the isometric hinges: ConstraintSettings::weights); null otherwise.
+  const std::array<Real, N>* weights = nullptr;
 };
 
 // In place: the constraints of a range share no free particle, so each batch gathers its

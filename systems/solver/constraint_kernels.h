@@ -118,6 +118,57 @@ struct DihedralKernel {
   }
 };
 
+// Type 3 in the isometric form, for hinges flat at rest (Bergou, Wardetzky, Harmon, Zorin and
+// Grinspun 2006, "A quadratic bending model for inextensible surfaces"): the hinge of
+// DihedralKernel with constant weights k (`weightsOf`, from the rest shape),
+//   v = Σ_k k_k x_k,  C = ‖v‖,  ∇_x_k C = k_k v/‖v‖.
+// The weights are the cotangent weights of the two triangles over the edge's rest length L
+// (Wardetzky et al. 2007): with cot_Ai the cotangent of triangle (x0, x1, x2) at x_i and cot_Bi
+// that of (x1, x0, x3),
+//   k = (cot_A1 + cot_B1, cot_A0 + cot_B0, −cot_A0 − cot_A1, −cot_B0 − cot_B1) / L.
+// They sum to zero and annihilate every flat (affine) image of the rest hinge, so C = 0 there;
+// folding the hinge by φ about its edge without stretching gives ‖v‖ = 2 L sin(|φ|/2), so
+// C = 2 sin(|φ|/2): the dihedral angle's energy to second order, with ∇C of the dihedral's
+// length at φ = 0. A flat hinge (v = 0) has no direction: zero gradients, no correction.
+struct IsometricBendKernel {
+  static constexpr std::size_t kArity = 4;
+  static constexpr bool kAngular = false;
+  static constexpr bool kWeighted = true;  // value() takes the constraint's weights
+  NUCLEON_KERNEL static Real value(const Points<4>& x, const std::array<Real, 4>& k,
+                                   Points<4>& grad) {
+    const Vec3 v = k[0] * x[0] + k[1] * x[1] + k[2] * x[2] + k[3] * x[3];
+    const Real length = v.norm();
+    if (length < kernel_detail::kTiny) {
+      for (Vec3& g : grad) g.setZero();
+      return length;
+    }
+    const Vec3 direction = v / length;
+    for (std::size_t i = 0; i < 4; ++i) grad[i] = k[i] * direction;
+    return length;
+  }
+
+  // The weights of a hinge from its rest positions; false where a triangle has no height over the
+  // edge (below 1e-6 of its length) or the edge has no length.
+  static bool weightsOf(const Points<4>& rest, std::array<Real, 4>& k) {
+    const Vec3 e = rest[1] - rest[0];
+    const Real length = e.norm();
+    if (!(length > kernel_detail::kTiny)) return false;
+    // The cotangent of the angle between two rays from one corner: (a·b)/‖a × b‖.
+    auto cotangent = [](const Vec3& a, const Vec3& b, Real& cot) {
+      const Real sine = a.cross(b).norm();
+      if (!(sine > Real(1e-6) * a.norm() * b.norm())) return false;
+      cot = a.dot(b) / sine;
+      return true;
+    };
+    Real a0, a1, b0, b1;
+    if (!cotangent(e, rest[2] - rest[0], a0) || !cotangent(-e, rest[2] - rest[1], a1) ||
+        !cotangent(e, rest[3] - rest[0], b0) || !cotangent(-e, rest[3] - rest[1], b1))
+      return false;
+    k = {(a1 + b1) / length, (a0 + b0) / length, -(a0 + a1) / length, -(b0 + b1) / length};
+    return true;
+  }
+};
+
 // Volume: the signed volume of the tetrahedron (x0, x1, x2, x3),
 //   V = (x1 − x0) × (x2 − x0) · (x3 − x0) / 6,
 //   ∇_x1 V = (x2 − x0) × (x3 − x0) / 6, ∇_x2 V = (x3 − x0) × (x1 − x0) / 6,

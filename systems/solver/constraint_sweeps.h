@@ -113,7 +113,11 @@ NUCLEON_KERNEL Real correct(const Pool& pool, std::size_t c, const Vec3* p, cons
                             form, dx);
   } else {
     terms.rest = pool.rest[c];
-    const Real value = Kernel::value(x, grad);
+    Real value;
+    if constexpr (requires { Kernel::kWeighted; })
+      value = Kernel::value(x, pool.weights[c], grad);
+    else
+      value = Kernel::value(x, grad);
     return projectEvaluated(value, grad.data(), x.data(), start.data(), weights.data(), kMax, terms,
                             projectionFormOf<Kernel>(), dx);
   }
@@ -233,7 +237,8 @@ namespace sweep_detail {
 // The kernels with an AVX2 batch (distance_batch.h, angular_batch.h) where `Paths` allows it.
 template <class Kernel>
 constexpr bool kAngularKernel =
-    std::is_same_v<Kernel, DihedralKernel> || std::is_same_v<Kernel, AngleKernel>;
+    std::is_same_v<Kernel, DihedralKernel> || std::is_same_v<Kernel, IsometricBendKernel> ||
+    std::is_same_v<Kernel, AngleKernel>;
 template <class Kernel, unsigned Paths>
 constexpr bool kBatched = ((Paths & kDistanceBatch) && std::is_base_of_v<DistanceKernel, Kernel>) ||
                           ((Paths & kAngularBatch) && kAngularKernel<Kernel>);
@@ -244,24 +249,24 @@ bool batchesAvailable() {
   return kAngularKernel<Kernel> ? angularBatchesAvailable() : distanceBatchesAvailable();
 }
 
-// The batch functions by arity: distance constraints, angles, dihedral hinges.
-inline Index projectBatches(const InPlaceBatch<2>& b, Index begin, Index end) {
-  return projectDistanceBatches(b, begin, end);
+// The batch functions by kernel: distance constraints, angles, dihedral and isometric hinges.
+template <class Kernel>
+Index projectBatches(const InPlaceBatch<Kernel::kArity>& b, Index begin, Index end) {
+  if constexpr (Kernel::kArity == 2) return projectDistanceBatches(b, begin, end);
+  if constexpr (Kernel::kArity == 3) return projectAngleBatches(b, begin, end);
+  if constexpr (std::is_same_v<Kernel, IsometricBendKernel>)
+    return projectIsometricBendBatches(b, begin, end);
+  else if constexpr (Kernel::kArity == 4)
+    return projectHingeBatches(b, begin, end);
 }
-inline Index projectBatches(const InPlaceBatch<3>& b, Index begin, Index end) {
-  return projectAngleBatches(b, begin, end);
-}
-inline Index projectBatches(const InPlaceBatch<4>& b, Index begin, Index end) {
-  return projectHingeBatches(b, begin, end);
-}
-inline Index projectJacobiBatches(const JacobiBatch<2>& b, Index begin, Index end) {
-  return projectDistanceJacobiBatches(b, begin, end);
-}
-inline Index projectJacobiBatches(const JacobiBatch<3>& b, Index begin, Index end) {
-  return projectAngleJacobiBatches(b, begin, end);
-}
-inline Index projectJacobiBatches(const JacobiBatch<4>& b, Index begin, Index end) {
-  return projectHingeJacobiBatches(b, begin, end);
+template <class Kernel>
+Index projectJacobiBatches(const JacobiBatch<Kernel::kArity>& b, Index begin, Index end) {
+  if constexpr (Kernel::kArity == 2) return projectDistanceJacobiBatches(b, begin, end);
+  if constexpr (Kernel::kArity == 3) return projectAngleJacobiBatches(b, begin, end);
+  if constexpr (std::is_same_v<Kernel, IsometricBendKernel>)
+    return projectIsometricBendJacobiBatches(b, begin, end);
+  else if constexpr (Kernel::kArity == 4)
+    return projectHingeJacobiBatches(b, begin, end);
 }
 
 // A pool's batch records (batch_parameters.h).
@@ -273,7 +278,8 @@ BatchColumns<Kernel::kArity> columnsOf(Pool& pool, Real invH) {
           pool.compressionCompliance.data(),
           pool.lambda.data(),
           invH * invH,
-          std::is_same_v<Kernel, TetherKernel>};
+          std::is_same_v<Kernel, TetherKernel>,
+          pool.weights.empty() ? nullptr : pool.weights.data()};
 }
 
 template <class Kernel, class Pool>
@@ -372,8 +378,8 @@ void solveJacobi(Pool& pool, const SweepContext& context, JacobiPath path = Jaco
         std::size_t c = r.begin() * kDistanceBatchSize;
         if constexpr (kBatched) {
           if (batched)
-            c = sweep_detail::projectJacobiBatches(batch, static_cast<Index>(c),
-                                                   static_cast<Index>(end));
+            c = sweep_detail::projectJacobiBatches<Kernel>(batch, static_cast<Index>(c),
+                                                           static_cast<Index>(end));
         }
         for (; c < end; ++c) sweep_detail::jacobiOne<Kernel>(pool, c, context, factors, invH);
       },
@@ -396,7 +402,7 @@ void solveColored(Pool& pool, const SweepContext& context) {
       forEachColorRange(
           pool.coloring, sweep_detail::kGrain, kDistanceBatchSize,
           [&](Index begin, Index end) {
-            for (Index c = sweep_detail::projectBatches(batch, begin, end); c < end; ++c)
+            for (Index c = sweep_detail::projectBatches<Kernel>(batch, begin, end); c < end; ++c)
               projectOne(c);
           },
           projectOne);

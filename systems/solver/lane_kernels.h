@@ -21,6 +21,8 @@
   Index projectDistanceJacobiBatches(const JacobiBatch<2>& batch, Index begin, Index end);       \
   Index projectHingeBatches(const InPlaceBatch<4>& batch, Index begin, Index end);               \
   Index projectHingeJacobiBatches(const JacobiBatch<4>& batch, Index begin, Index end);          \
+  Index projectIsometricBendBatches(const InPlaceBatch<4>& batch, Index begin, Index end);       \
+  Index projectIsometricBendJacobiBatches(const JacobiBatch<4>& batch, Index begin, Index end);  \
   Index projectAngleBatches(const InPlaceBatch<3>& batch, Index begin, Index end);               \
   Index projectAngleJacobiBatches(const JacobiBatch<3>& batch, Index begin, Index end);          \
   void moveVertexBlocks(const VertexSlotRows& rows, std::span<const Vec3> positions, Real* move, \
