@@ -189,9 +189,11 @@ TEST(IsometricBendKernel, AHingeUnderGravityRestsAtItsAnalyticAngle) {
     EXPECT_NEAR(wing.norm(), h, 1e-4);  // it swings on its edge, unstretched
     return std::atan2(-double(wing.y()), double(wing.x()));
   };
-  // The rounding of float state and an unconverged last substep leave well under 0.005 rad.
-  EXPECT_NEAR(restAngle(BendModel::Dihedral), 0.739085, 0.005);
-  EXPECT_NEAR(restAngle(BendModel::Isometric), std::numbers::pi / 4, 0.005);
+  // Measured in Release: 0.73844 and 0.78445 rad, 6.5e-4 and 9.5e-4 short of the analytic
+  // angles (the sweeps' residual in the last substep); 0.002 allows twice that and still tells
+  // the two forms, 0.046 rad apart, from each other.
+  EXPECT_NEAR(restAngle(BendModel::Dihedral), 0.739085, 0.002);
+  EXPECT_NEAR(restAngle(BendModel::Isometric), std::numbers::pi / 4, 0.002);
 }
 
 }  // namespace

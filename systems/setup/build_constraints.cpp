@@ -15,16 +15,25 @@
 namespace nucleon {
 namespace {
 
+// A constraint's particles in the object's rest shape, and their global indices.
+template <std::size_t N>
+struct RestConstraint {
+  Points<N> x;
+  std::array<Index, N> global;
+  RestConstraint(const std::array<Index, N>& local, std::span<const Vec3> rest, Index first) {
+    for (std::size_t k = 0; k < N; ++k) {
+      x[k] = rest[local[k]];
+      global[k] = first + local[k];
+    }
+  }
+};
+
 template <class Kernel, std::size_t N>
 void appendMeasured(ConstraintPool<N>& pool, const std::array<Index, N>& local,
                     std::span<const Vec3> rest, Index first, Real compliance, Real damping) {
-  Points<N> x, grad;
-  std::array<Index, N> global;
-  for (std::size_t k = 0; k < N; ++k) {
-    x[k] = rest[local[k]];
-    global[k] = first + local[k];
-  }
-  pool.append(global, Kernel::value(x, grad), compliance, compliance, damping);
+  const RestConstraint<N> r(local, rest, first);
+  Points<N> grad;
+  pool.append(r.global, Kernel::value(r.x, grad), compliance, compliance, damping);
 }
 
 // A hinge flat at rest in the isometric form (IsometricBendKernel); false, and nothing appended,
@@ -32,17 +41,13 @@ void appendMeasured(ConstraintPool<N>& pool, const std::array<Index, N>& local,
 // at rest: that hinge keeps the dihedral angle) or a triangle has no height over the edge.
 bool appendIsometric(ConstraintPool<4>& pool, const std::array<Index, 4>& local,
                      std::span<const Vec3> rest, Index first, const Material& m) {
-  Points<4> x, grad;
-  std::array<Index, 4> global;
-  for (std::size_t k = 0; k < 4; ++k) {
-    x[k] = rest[local[k]];
-    global[k] = first + local[k];
-  }
+  const RestConstraint<4> r(local, rest, first);
+  Points<4> grad;
   std::array<Real, 4> weights;
-  if (std::abs(DihedralKernel::value(x, grad)) > Real(1e-3) ||
-      !IsometricBendKernel::weightsOf(x, weights))
+  if (std::abs(DihedralKernel::value(r.x, grad)) > Real(1e-3) ||
+      !IsometricBendKernel::weightsOf(r.x, weights))
     return false;
-  pool.append(global, 0, m.bendCompliance, m.bendCompliance, m.damping, weights);
+  pool.append(r.global, 0, m.bendCompliance, m.bendCompliance, m.damping, weights);
   return true;
 }
 

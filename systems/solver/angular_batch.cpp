@@ -216,8 +216,7 @@ NUCLEON_LANES void loadCorners(const Vec3* positions, const std::array<Index, N>
     x[c] = point_lanes::loadCorner(positions, particles, k, static_cast<int>(c));
 }
 
-// One inverse mass per corner of constraints k … k+7, from a per-particle array (`particles`) or
-// from the pool's per-constraint column.
+// One inverse mass per corner of constraints k … k+7, from a per-particle array (`particles`).
 template <std::size_t N>
 NUCLEON_LANES void loadMasses(const Real* inverseMass, const std::array<Index, N>* particles,
                               Index k, __m256* w) {
@@ -228,12 +227,14 @@ NUCLEON_LANES void loadMasses(const Real* inverseMass, const std::array<Index, N
                           inverseMass[particles[k + 6][c]], inverseMass[particles[k + 7][c]]);
 }
 
+// One lane per corner of constraints k … k+7 from a per-constraint column of N values (the
+// pool's end inverse masses, the isometric hinges' weights).
 template <std::size_t N>
-NUCLEON_LANES void loadMasses(const std::array<Real, N>* endInverseMass, Index k, __m256* w) {
+NUCLEON_LANES void loadRows(const std::array<Real, N>* rows, Index k, __m256* w) {
   if constexpr (N == 4) {
     // Eight rows of four: two 4 × 4 transposes in one set of registers (3–5% of a colored-gs
     // bend sweep against eight scalar loads per corner).
-    const float* at = endInverseMass[k].data();
+    const float* at = rows[k].data();
     __m256 row[4];
     for (int j = 0; j < 4; ++j)
       row[j] = _mm256_set_m128(_mm_loadu_ps(at + 4 * (j + 4)), _mm_loadu_ps(at + 4 * j));
@@ -245,15 +246,13 @@ NUCLEON_LANES void loadMasses(const std::array<Real, N>* endInverseMass, Index k
     w[3] = _mm256_shuffle_ps(t2, t3, _MM_SHUFFLE(3, 2, 3, 2));
   } else {
     for (std::size_t c = 0; c < N; ++c)
-      w[c] = _mm256_setr_ps(endInverseMass[k][c], endInverseMass[k + 1][c],
-                            endInverseMass[k + 2][c], endInverseMass[k + 3][c],
-                            endInverseMass[k + 4][c], endInverseMass[k + 5][c],
-                            endInverseMass[k + 6][c], endInverseMass[k + 7][c]);
+      w[c] = _mm256_setr_ps(rows[k][c], rows[k + 1][c], rows[k + 2][c], rows[k + 3][c],
+                            rows[k + 4][c], rows[k + 5][c], rows[k + 6][c], rows[k + 7][c]);
   }
 }
 
-// A lane kernel's C and gradients for constraints k … k+7, with their weights where it takes
-// them, and its multiplier step.
+// A lane kernel's C and gradients for constraints k … k+7, given their weights where it takes
+// them (kWeighted).
 template <class Lanes>
 constexpr bool kWeightedLanes = requires {
   Lanes::kWeighted;
@@ -264,7 +263,7 @@ NUCLEON_LANES AngleLanes<Lanes::kArity> evaluateLanes(const BatchColumns<N>& b, 
                                                       const Lane3* x) {
   if constexpr (kWeightedLanes<Lanes>) {
     __m256 weights[N];
-    loadMasses(b.weights, k, weights);  // rows of N, transposed as the end masses are
+    loadRows(b.weights, k, weights);
     return Lanes::evaluate(x, weights);
   } else {
     return Lanes::evaluate(x);
@@ -281,7 +280,7 @@ template <class Lanes>
     Lane3 x[n];
     loadCorners(b.positions, b.particles, k, x);
     __m256 w[n];
-    loadMasses(b.endInverseMass, k, w);
+    loadRows(b.endInverseMass, k, w);
     const __m256 lambda = _mm256_loadu_ps(b.lambda + k);
     const AngleLanes<n> angle = evaluateLanes<Lanes>(b, k, x);
     const __m256 deltaLambda = multiplierStep<n, !kWeightedLanes<Lanes>>(

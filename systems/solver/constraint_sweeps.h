@@ -252,20 +252,24 @@ bool batchesAvailable() {
 // The batch functions by kernel: distance constraints, angles, dihedral and isometric hinges.
 template <class Kernel>
 Index projectBatches(const InPlaceBatch<Kernel::kArity>& b, Index begin, Index end) {
-  if constexpr (Kernel::kArity == 2) return projectDistanceBatches(b, begin, end);
-  if constexpr (Kernel::kArity == 3) return projectAngleBatches(b, begin, end);
-  if constexpr (std::is_same_v<Kernel, IsometricBendKernel>)
+  if constexpr (Kernel::kArity == 2)
+    return projectDistanceBatches(b, begin, end);
+  else if constexpr (Kernel::kArity == 3)
+    return projectAngleBatches(b, begin, end);
+  else if constexpr (std::is_same_v<Kernel, IsometricBendKernel>)
     return projectIsometricBendBatches(b, begin, end);
-  else if constexpr (Kernel::kArity == 4)
+  else
     return projectHingeBatches(b, begin, end);
 }
 template <class Kernel>
 Index projectJacobiBatches(const JacobiBatch<Kernel::kArity>& b, Index begin, Index end) {
-  if constexpr (Kernel::kArity == 2) return projectDistanceJacobiBatches(b, begin, end);
-  if constexpr (Kernel::kArity == 3) return projectAngleJacobiBatches(b, begin, end);
-  if constexpr (std::is_same_v<Kernel, IsometricBendKernel>)
+  if constexpr (Kernel::kArity == 2)
+    return projectDistanceJacobiBatches(b, begin, end);
+  else if constexpr (Kernel::kArity == 3)
+    return projectAngleJacobiBatches(b, begin, end);
+  else if constexpr (std::is_same_v<Kernel, IsometricBendKernel>)
     return projectIsometricBendJacobiBatches(b, begin, end);
-  else if constexpr (Kernel::kArity == 4)
+  else
     return projectHingeJacobiBatches(b, begin, end);
 }
 
