@@ -167,6 +167,29 @@ TEST(Tethers, CountIsBoundedForManyPins) {
   }
 }
 
+// The cascade's shortcut: where surelyInsideTether holds, the projections return x bit for bit,
+// so skipping them changes nothing. Points at random distances near the limit (within ±1e-5
+// relative, where rounding decides), 20,000 of them, about half inside.
+TEST(Tethers, SurelyInsideMeansEveryProjectionLeavesThePoint) {
+  std::mt19937 random(11);
+  std::uniform_real_distribution<double> unit(-1, 1), positive(0.2, 1.5), near(-1e-5, 1e-5);
+  auto point = [&] { return Vec3(Real(unit(random)), Real(unit(random)), Real(unit(random))); };
+  int inside = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    const Vec3 a = point(), b = point();
+    const Real ra = Real(positive(random));
+    const Real scale = Real(trial % 2 == 0 ? 1 + near(random) : std::abs(unit(random)));
+    const Vec3 x = a + ra * scale * point().normalized();
+    const Real rb = Real((x - b).norm() * (1 + 4e-5 + 0.1 * std::abs(unit(random))));
+    if (!surelyInsideTether(x, a, ra)) continue;
+    ++inside;
+    ASSERT_TRUE(projectOntoTether(x, a, ra) == x) << trial;
+    ASSERT_TRUE(surelyInsideTether(x, b, rb)) << trial;
+    ASSERT_TRUE(projectOntoTetherPair(x, a, ra, b, rb) == x) << trial;
+  }
+  EXPECT_GT(inside, 5000);
+}
+
 // Two tethers at once: the result is the closest point of the intersection of the two balls. For
 // 2,000 random cases it lies in both balls (to float rounding, 1e-5 m on these metre-sized
 // cases) and no point of the intersection, sampled 400 times per case, is closer. Balls that

@@ -23,8 +23,9 @@ namespace nucleon {
 // Runs the cascade on particles.p for every hierarchy of at least two levels whose object is
 // inextensible (stretch compliance 0; a soft object's coarse limits would stiffen it), with
 // sweepsOfLevel(sweepsPerLevel, l) sweeps of coarse level l. Colors of a level run in sequence, the
-// edges of a color in parallel (no two share a particle), prolongation in parallel per particle:
-// the result does not depend on the thread count. While the substep has contacts, the hook is
+// edges of a color in parallel (no two share a particle), prolongation in parallel per particle
+// (on the calling thread after a level small enough to be swept there): the result does not
+// depend on the thread count. While the substep has contacts, the hook is
 // called between two sweeps of a level as `hook(context, level.particles, BetweenSweeps)`, after
 // the sweeps of every level as `hook(context, level.particles, AfterLevel)`, and after the last
 // prolongation as `hook(context, {}, AfterCascade)` (every particle): the solve projects its

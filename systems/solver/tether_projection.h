@@ -28,6 +28,13 @@ constexpr Real kTiny = Real(1e-12);
 constexpr Real kInsideSlack = Real(1e-6);
 }  // namespace tether_detail
 
+// Whether |x − c| ≤ r holds with a margin that rounding cannot cross: then projectOntoTether
+// returns x, and projectOntoTetherPair returns x when it holds for both balls. A test on the
+// squared distance, without the square root, for sweeps where most vertices are inside.
+inline bool surelyInsideTether(const Vec3& x, const Vec3& c, Real r) {
+  return (x - c).squaredNorm() < r * r * (1 - 16 * tether_detail::kInsideSlack);
+}
+
 // The closest point to x with |x − c| ≤ r.
 inline Vec3 projectOntoTether(const Vec3& x, const Vec3& c, Real r) {
   const Vec3 d = x - c;
