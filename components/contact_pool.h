@@ -36,6 +36,9 @@ struct ContactPool {
   // Build scratch: per particle, how many contacts it has (then, after the scan, where its run
   // starts). Sized to the particle count once, reused every substep.
   std::vector<Index> runStart;
+  // Scratch of the re-detection after the multigrid cascade (addReachedContacts): per particle,
+  // the contacts it gains.
+  std::vector<Index> reachedCount;
 
   std::size_t size() const { return particle.size(); }
   // Sizes every column to n. Within the reserved capacity this never allocates.

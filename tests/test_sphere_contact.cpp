@@ -1,6 +1,7 @@
 // Static sphere colliders: no particle ends inside, resting contact sits on the surface, and the
 // position-based friction reproduces Coulomb's sticking condition tan θ ≤ μ_s on a slope.
 #include <cmath>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -100,6 +101,77 @@ TEST(GroundContact, RedetectionCoversWhereTheSolveCarriedAParticle) {
   projectContacts(contacts, colliders, particles, SolverKind::ColoredGaussSeidel);
   EXPECT_NEAR(particles.p[0].y(), 0.01, 1e-6);  // pushed out to the contact surface
   EXPECT_EQ(particles.p[1], Vec3(1, 1, 0));
+}
+
+// The in-place re-detection against the full one: 3,000 particles around a sphere and a plane,
+// falling at random speeds, the pool detected over their predicted motion, then every free one
+// carried somewhere at random (some into reach, some not). Where the full re-detection gives a
+// particle without contacts new ones, addReachedContacts gives the same (particle order, collider
+// order, the same collider); every particle that had contacts keeps them; multipliers and
+// friction start at zero; and it does nothing when no particle is missing a contact.
+TEST(SphereContact, InPlaceRedetectionMatchesTheFullOne) {
+  ColliderPool colliders;
+  colliders.append(ColliderShape::Plane, Vec3::Zero(), Vec3(0, 1, 0), 0, Real(0.01), 0, 0);
+  colliders.append(ColliderShape::Sphere, Vec3(0, Real(0.5), 0), Vec3::Zero(), Real(0.5),
+                   Real(0.01), Real(0.5), Real(0.5));
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  const std::size_t n = 3000;
+  ParticlePool particles;
+  particles.append(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    particles.x[i] = Vec3(Real(unit(random)), Real(0.55 + 0.5 * unit(random)), Real(unit(random)));
+    particles.v[i] = Vec3(0, Real(-3 * (unit(random) + 1)), 0);
+    particles.w[i] = i % 50 == 0 ? 0 : 1;
+  }
+  const Real h = Real(1) / 60;
+  ContactPool inPlace;
+  detectContacts(inPlace, colliders, particles, h);
+  // Nothing moved yet: nothing is missing, nothing changes.
+  for (std::size_t i = 0; i < n; ++i) particles.p[i] = particles.x[i] + h * particles.v[i];
+  const std::size_t before = inPlace.size();
+  ASSERT_GT(before, 100u);
+  inPlace.lambda.assign(before, Real(0.25));
+  EXPECT_EQ(addReachedContacts(inPlace, colliders, particles, h), 0u);
+  EXPECT_EQ(inPlace.size(), before);
+  EXPECT_EQ(inPlace.lambda.front(), Real(0.25));
+  // Carried at random: a third of the free particles moved up to 30 cm.
+  for (std::size_t i = 0; i < n; ++i)
+    if (particles.w[i] != 0 && i % 3 == 0)
+      particles.p[i] +=
+          Real(0.3) * Vec3(Real(unit(random)), Real(unit(random)), Real(unit(random)));
+  ContactPool full = inPlace;
+  detectContacts(full, colliders, particles, h, particles.p);
+  const ContactPool old = inPlace;
+  const std::size_t added = addReachedContacts(inPlace, colliders, particles, h);
+  ASSERT_GT(added, 10u);
+  EXPECT_EQ(inPlace.size(), before + added);
+  ASSERT_EQ(inPlace.runStart.size(), n + 1);
+  EXPECT_EQ(inPlace.runStart[n], inPlace.size());
+  std::size_t compared = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Index begin = inPlace.runStart[i], end = inPlace.runStart[i + 1];
+    ASSERT_LE(begin, end);
+    for (Index c = begin; c < end; ++c) {
+      ASSERT_EQ(inPlace.particle[c], i);
+      EXPECT_EQ(inPlace.lambda[c], 0);
+      EXPECT_EQ(inPlace.friction[c], Vec3::Zero());
+    }
+    const Index oldBegin = old.runStart[i], oldEnd = old.runStart[i + 1];
+    if (oldEnd > oldBegin) {  // had contacts: kept, the same colliders
+      ASSERT_EQ(end - begin, oldEnd - oldBegin) << i;
+      for (Index c = 0; c < end - begin; ++c)
+        EXPECT_EQ(inPlace.collider[begin + c], old.collider[oldBegin + c]) << i;
+      continue;
+    }
+    ASSERT_EQ(end - begin, full.runStart[i + 1] - full.runStart[i]) << i;
+    for (Index c = 0; c < end - begin; ++c) {
+      EXPECT_EQ(inPlace.collider[begin + c], full.collider[full.runStart[i] + c]) << i;
+      EXPECT_EQ(inPlace.normal[begin + c], full.normal[full.runStart[i] + c]) << i;
+    }
+    compared += end - begin;
+  }
+  EXPECT_EQ(compared, added);
 }
 
 TEST(SphereContact, RejectsBadSpheres) {

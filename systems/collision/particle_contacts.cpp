@@ -227,6 +227,84 @@ bool contactsMissing(const ContactPool& contacts, const ColliderPool& colliders,
       [](bool a, bool b) { return a || b; });
 }
 
+std::size_t addReachedContacts(ContactPool& contacts, const ColliderPool& colliders,
+                               const ParticlePool& particles, Real h) {
+  const std::size_t n = particles.size();
+  if (colliders.size() == 0 || contacts.runStart.size() != n + 1) return 0;
+  contacts.reachedCount.resize(n);
+  Index* count = contacts.reachedCount.data();
+  // Pass 1: whether any particle is missing its contacts (contactsMissing's test), and how many
+  // contacts each particle without one gets from the predicate of detectContacts with reached = p.
+  struct Found {
+    bool missing = false;
+    std::size_t added = 0;
+  };
+  const Found found = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, kParticleGrain), Found{},
+      [&](const tbb::blocked_range<std::size_t>& r, Found sum) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          count[i] = 0;
+          if (particles.w[i] == 0 || contacts.runStart[i] != contacts.runStart[i + 1]) continue;
+          const Real extra = contacts.extraReach.empty() ? Real(0) : contacts.extraReach[i];
+          const Vec3 predicted = particles.x[i] + h * particles.v[i];
+          for (std::size_t k = 0; k < colliders.size(); ++k) {
+            sum.missing = sum.missing || inReach(colliders, k, particles.x[i], particles.p[i]);
+            count[i] += inReach(colliders, k, particles.x[i], predicted, extra) ||
+                        inReach(colliders, k, particles.x[i], particles.p[i], extra);
+          }
+          sum.added += count[i];
+        }
+        return sum;
+      },
+      [](Found a, Found b) {
+        return Found{a.missing || b.missing, a.added + b.added};
+      });
+  if (!found.missing) return 0;
+  // Pass 2, from the last particle back: each run moves up by the contacts added before its end
+  // (never down, so moving back to front overwrites nothing still to be read), and the new runs
+  // are written in the gaps, in collider order. Runs before the first new one stay where they are.
+  const std::size_t oldTotal = contacts.size();
+  contacts.resize(oldTotal + found.added);
+  Index write = static_cast<Index>(oldTotal + found.added);
+  Index oldEnd = contacts.runStart[n];
+  contacts.runStart[n] = write;
+  for (std::size_t i = n; i-- > 0 && write != oldEnd;) {
+    const Index oldBegin = contacts.runStart[i];
+    if (count[i] > 0) {
+      const Vec3 predicted = particles.x[i] + h * particles.v[i];
+      const Real extra = contacts.extraReach.empty() ? Real(0) : contacts.extraReach[i];
+      Index c = write - count[i];
+      for (std::size_t k = 0; k < colliders.size(); ++k) {
+        if (!inReach(colliders, k, particles.x[i], predicted, extra) &&
+            !inReach(colliders, k, particles.x[i], particles.p[i], extra))
+          continue;
+        const SurfacePoint surface = surfaceAt(colliders, k, predicted);
+        contacts.particle[c] = static_cast<Index>(i);
+        contacts.collider[c] = static_cast<Index>(k);
+        contacts.normal[c] = surface.normal;
+        contacts.depth[c] = -surface.gap;
+        ++c;
+      }
+      write -= count[i];
+    } else {
+      for (Index c = oldEnd; c-- > oldBegin;) {
+        --write;
+        contacts.particle[write] = contacts.particle[c];
+        contacts.collider[write] = contacts.collider[c];
+        contacts.normal[write] = contacts.normal[c];
+        contacts.depth[write] = contacts.depth[c];
+      }
+    }
+    contacts.runStart[i] = write;
+    oldEnd = oldBegin;
+  }
+  // Every contact starts the rest of the substep afresh, as from a detection: multipliers and
+  // friction at zero.
+  std::fill(contacts.lambda.begin(), contacts.lambda.end(), Real(0));
+  std::fill(contacts.friction.begin(), contacts.friction.end(), Vec3::Zero());
+  return found.added;
+}
+
 std::size_t resolveMissedContacts(const ContactPool& contacts, const ColliderPool& colliders,
                                   ParticlePool& particles) {
   if (colliders.size() == 0) return 0;

@@ -84,9 +84,7 @@ void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepC
       },
       &pools, {&pools.contacts, &pools.colliders, &pools.primitiveContacts},
       settings.cascadeRelaxation);
-  if (pools.colliders.size() > 0 &&
-      contactsMissing(pools.contacts, pools.colliders, pools.particles)) {
-    detectContacts(pools.contacts, pools.colliders, pools.particles, context.h, pools.particles.p);
+  if (addReachedContacts(pools.contacts, pools.colliders, pools.particles, context.h) > 0) {
     projectContacts(pools.contacts, pools.colliders, pools.particles, settings.sweepKind);
     ++report.colliderRedetections;
   }
