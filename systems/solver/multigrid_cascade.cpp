@@ -50,6 +50,12 @@ void projectLimit(ParticlePool& particles, const std::array<Index, 2>& edge, Rea
 // 0.9–1.0: bench/results/2core-AMD-EPYC/solver_speed.md §12.)
 constexpr std::size_t kSerialEdges = 8192;
 
+// The limits' passes over coarse particles and edges (setContactLimits) are one loop each, not
+// a sequence of colors, and cost 15–20 ns an item (square roots): on both threads from this
+// many items, in pieces of kItemGrain (128² drape, 2 threads: level 2's 4,160 edges 60 → 35 µs).
+constexpr std::size_t kSerialItems = 2048;
+constexpr std::size_t kItemGrain = 512;
+
 // Support ids: a sphere collider's index, or a static mesh's object id with the high bit set.
 constexpr Index kNoSupport = ~Index(0);
 constexpr Index kMeshSupport = Index(1) << 31;
@@ -282,7 +288,7 @@ void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& part
   std::uint8_t* held = scratch.held.data();
   // Only the coarse particles end coarse edges and are swept: level 1 holds them all.
   const std::vector<Index>& coarse = hierarchy.levels[1].particles;
-  forEachIndex(coarse.size(), coarse.size() < kSerialEdges, kParticleGrain, [&](std::size_t k) {
+  forEachIndex(coarse.size(), coarse.size() < kSerialItems, kItemGrain, [&](std::size_t k) {
     const Index i = coarse[k];
     held[i] = heldBent(i) ? 1 : 0;
     scratch.supportId[i] = kNoSupport;
@@ -294,7 +300,7 @@ void setContactLimits(const ObjectHierarchy& hierarchy, const ParticlePool& part
     const HierarchyLevel& level = hierarchy.levels[l];
     Real* limit = scratch.limit.data() + level.scratchBase;
     forEachIndex(
-        level.edges.size(), level.edges.size() < kSerialEdges, kEdgeGrain, [&](std::size_t e) {
+        level.edges.size(), level.edges.size() < kSerialItems, kItemGrain, [&](std::size_t e) {
           const std::array<Index, 4>& path = level.path[e];
           const Real rest = level.restLength[e];
           limit[e] = rest;
