@@ -26,6 +26,9 @@ struct ContactPool {
   // tangential motion of the substep by μ λ_n (Coulomb), so both must cover the whole substep.
   std::vector<Real> lambda;
   std::vector<Vec3> friction;
+  // Scratch of the projection in lanes (collider_contact_lanes.h): each contact's particle's new
+  // position, written back by particle after the lanes.
+  std::vector<Vec3> moved;
 
   // Static (set with the derived tables): per particle, how much farther than its own motion it
   // is looked for within a collider's reach; empty when none is. A liquid particle's is the kernel
@@ -49,6 +52,7 @@ struct ContactPool {
     depth.resize(n);
     lambda.resize(n);
     friction.resize(n);
+    moved.resize(n);
   }
 };
 

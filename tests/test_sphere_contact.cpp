@@ -4,6 +4,7 @@
 #include <random>
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include "nucleon/scene.h"
 #include "nucleon/shapes.h"
@@ -172,6 +173,64 @@ TEST(SphereContact, InPlaceRedetectionMatchesTheFullOne) {
     compared += end - begin;
   }
   EXPECT_EQ(compared, added);
+}
+
+// The parallel projection sends particles with one contact to the lanes
+// (collider_contact_lanes.h) and the others to the scalar run; Gauss–Seidel projects every run
+// with the scalar code. Both must give the same bits: 4,000 particles around a sphere and two
+// planes (a floor and a slanted wall, so that some have two contacts), a pool detected over
+// random motions, five rounds (the later ones with multipliers and friction to bound), at 1 and
+// 2 threads. Then p, λ, F, normals and depths are compared bit for bit.
+TEST(SphereContact, LanesGiveTheScalarProjectionsBits) {
+  ColliderPool colliders;
+  colliders.append(ColliderShape::Plane, Vec3::Zero(), Vec3(0, 1, 0), 0, Real(0.01), Real(0.3),
+                   Real(0.5));
+  colliders.append(ColliderShape::Plane, Vec3(Real(0.6), 0, 0), Vec3(-1, 1, 0).normalized(), 0,
+                   Real(0.01), Real(0.8), Real(0.9));
+  colliders.append(ColliderShape::Sphere, Vec3(0, Real(0.5), 0), Vec3::Zero(), Real(0.5),
+                   Real(0.01), Real(0.5), Real(0.6));
+  std::mt19937 random(9);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  const std::size_t n = 4000;
+  ParticlePool particles;
+  particles.append(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    particles.x[i] = Vec3(Real(unit(random)), Real(0.5 + 0.6 * unit(random)), Real(unit(random)));
+    particles.v[i] = Vec3(Real(unit(random)), Real(-3 * (unit(random) + 1)), Real(unit(random)));
+    particles.w[i] = 1;
+  }
+  const Real h = Real(1) / 60;
+  ContactPool contacts;
+  detectContacts(contacts, colliders, particles, h);
+  std::size_t singles = 0, multiple = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Index runs = contacts.runStart[i + 1] - contacts.runStart[i];
+    singles += runs == 1;
+    multiple += runs > 1;
+  }
+  ASSERT_GT(singles, 500u);
+  ASSERT_GT(multiple, 20u);
+  for (std::size_t i = 0; i < n; ++i) particles.p[i] = particles.x[i] + h * particles.v[i];
+  for (const int threads : {1, 2}) {
+    ParticlePool scalar = particles, lanes = particles;
+    ContactPool scalarPool = contacts, lanePool = contacts;
+    tbb::task_arena arena(threads);
+    for (int round = 0; round < 5; ++round) {
+      projectContacts(scalarPool, colliders, scalar, SolverKind::GaussSeidel);
+      arena.execute(
+          [&] { projectContacts(lanePool, colliders, lanes, SolverKind::ColoredGaussSeidel); });
+    }
+    std::size_t rubbing = 0;
+    for (std::size_t i = 0; i < n; ++i) ASSERT_TRUE(scalar.p[i] == lanes.p[i]) << i;
+    for (std::size_t c = 0; c < contacts.size(); ++c) {
+      ASSERT_EQ(scalarPool.lambda[c], lanePool.lambda[c]) << c;
+      ASSERT_TRUE(scalarPool.friction[c] == lanePool.friction[c]) << c;
+      ASSERT_TRUE(scalarPool.normal[c] == lanePool.normal[c]) << c;
+      ASSERT_EQ(scalarPool.depth[c], lanePool.depth[c]) << c;
+      rubbing += lanePool.friction[c] != Vec3::Zero();
+    }
+    EXPECT_GT(rubbing, 100u);  // friction acted, not only the push
+  }
 }
 
 TEST(SphereContact, RejectsBadSpheres) {

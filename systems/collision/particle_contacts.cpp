@@ -9,6 +9,8 @@
 #include <tbb/parallel_reduce.h>
 #include <tbb/parallel_scan.h>
 
+#include "systems/collision/collider_contact_lanes.h"
+
 namespace nucleon {
 namespace {
 
@@ -179,17 +181,33 @@ void projectContacts(ContactPool& contacts, const ColliderPool& colliders, Parti
     return;
   }
   // A task owns the runs that start in its range (finishing a run past the range's end), so each
-  // particle is written by one task and its contacts go in pool order.
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, count, kContactGrain),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t c = r.begin(); c != r.end(); ++c) {
-          if (c > 0 && contacts.particle[c - 1] == contacts.particle[c]) continue;
-          std::size_t last = c;
-          while (last + 1 < count && contacts.particle[last + 1] == contacts.particle[c]) ++last;
-          projectRun(contacts, colliders, particles, c, last);
-        }
-      });
+  // particle is written by one task and its contacts go in pool order. Stretches of particles
+  // with one contact each, most of a pool, go to the lanes (collider_contact_lanes.h): they share
+  // nothing, and each lane gives projectRun's bits.
+  const Index* particleOf = contacts.particle.data();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, kContactGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      std::size_t c = r.begin();
+                      if (c > 0)
+                        while (c != r.end() && particleOf[c - 1] == particleOf[c]) ++c;
+                      while (c != r.end()) {
+                        // Single runs from c on: each contact's particle differs from the next
+                        // one's.
+                        std::size_t single = c;
+                        while (single != r.end() && (single + 1 == count ||
+                                                     particleOf[single + 1] != particleOf[single]))
+                          ++single;
+                        if (single > c)
+                          projectSingleContacts(contacts, colliders, particles, c, single);
+                        if (single == r.end()) break;
+                        std::size_t last = single;
+                        while (last + 1 < count && particleOf[last + 1] == particleOf[single])
+                          ++last;
+                        projectRun(contacts, colliders, particles, single, last);
+                        c = last + 1;
+                        if (c > r.end()) break;
+                      }
+                    });
 }
 
 void projectContactsOf(ContactPool& contacts, const ColliderPool& colliders,
