@@ -1,5 +1,6 @@
 // Static sphere colliders: no particle ends inside, resting contact sits on the surface, and the
 // position-based friction reproduces Coulomb's sticking condition tan θ ≤ μ_s on a slope.
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -127,6 +128,9 @@ TEST(SphereContact, InPlaceRedetectionMatchesTheFullOne) {
   }
   const Real h = Real(1) / 60;
   ContactPool inPlace;
+  // Some particles are looked for farther (as liquid particles are): both detections use it.
+  inPlace.extraReach.assign(n, 0);
+  for (std::size_t i = 0; i < n; i += 7) inPlace.extraReach[i] = Real(0.05);
   detectContacts(inPlace, colliders, particles, h);
   // Nothing moved yet: nothing is missing, nothing changes.
   for (std::size_t i = 0; i < n; ++i) particles.p[i] = particles.x[i] + h * particles.v[i];
@@ -159,10 +163,13 @@ TEST(SphereContact, InPlaceRedetectionMatchesTheFullOne) {
       EXPECT_EQ(inPlace.friction[c], Vec3::Zero());
     }
     const Index oldBegin = old.runStart[i], oldEnd = old.runStart[i + 1];
-    if (oldEnd > oldBegin) {  // had contacts: kept, the same colliders
+    if (oldEnd > oldBegin) {  // had contacts: kept as they were, multipliers aside
       ASSERT_EQ(end - begin, oldEnd - oldBegin) << i;
-      for (Index c = 0; c < end - begin; ++c)
+      for (Index c = 0; c < end - begin; ++c) {
         EXPECT_EQ(inPlace.collider[begin + c], old.collider[oldBegin + c]) << i;
+        EXPECT_TRUE(inPlace.normal[begin + c] == old.normal[oldBegin + c]) << i;
+        EXPECT_EQ(inPlace.depth[begin + c], old.depth[oldBegin + c]) << i;
+      }
       continue;
     }
     ASSERT_EQ(end - begin, full.runStart[i + 1] - full.runStart[i]) << i;
@@ -199,6 +206,9 @@ TEST(SphereContact, LanesGiveTheScalarProjectionsBits) {
     particles.v[i] = Vec3(Real(unit(random)), Real(-3 * (unit(random) + 1)), Real(unit(random)));
     particles.w[i] = 1;
   }
+  // One particle at rest at the sphere's centre, where its normal is the (0, 1, 0) of surfaceAt.
+  particles.x[0] = Vec3(0, Real(0.5), 0);
+  particles.v[0] = Vec3::Zero();
   const Real h = Real(1) / 60;
   ContactPool contacts;
   detectContacts(contacts, colliders, particles, h);
@@ -231,6 +241,19 @@ TEST(SphereContact, LanesGiveTheScalarProjectionsBits) {
     }
     EXPECT_GT(rubbing, 100u);  // friction acted, not only the push
   }
+  // A pool whose sphere has radius 0 (built directly; World refuses it) does not fit the lanes,
+  // which tell a plane by its zero radius: every run is then scalar, the same bits again.
+  ColliderPool odd = colliders;
+  odd.append(ColliderShape::Sphere, Vec3(Real(-0.5), Real(0.4), 0), Vec3::Zero(), 0, Real(0.2),
+             Real(0.5), Real(0.5));
+  ContactPool oddPool;
+  detectContacts(oddPool, odd, particles, h);
+  ASSERT_GT(std::count(oddPool.collider.begin(), oddPool.collider.end(), Index(3)), 10);
+  ParticlePool scalar = particles, lanes = particles;
+  ContactPool scalarPool = oddPool, lanePool = oddPool;
+  projectContacts(scalarPool, odd, scalar, SolverKind::GaussSeidel);
+  projectContacts(lanePool, odd, lanes, SolverKind::ColoredGaussSeidel);
+  for (std::size_t i = 0; i < n; ++i) ASSERT_TRUE(scalar.p[i] == lanes.p[i]) << i;
 }
 
 TEST(SphereContact, RejectsBadSpheres) {

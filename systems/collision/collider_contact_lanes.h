@@ -15,7 +15,8 @@ namespace nucleon {
 
 // Projects contacts [begin, end), each the only contact of its particle (no two share one):
 // the push out along the normal (λ += −C where C < 0), then friction over the substep, as
-// projectContact does for one.
+// projectContact does for one. Every collider must be a plane of radius 0 or a sphere of positive
+// radius: the lanes tell them apart by the radius (projectContacts checks it).
 void projectSingleContacts(ContactPool& contacts, const ColliderPool& colliders,
                            ParticlePool& particles, std::size_t begin, std::size_t end);
 

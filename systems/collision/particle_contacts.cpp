@@ -101,6 +101,42 @@ inline void projectRun(ContactPool& contacts, const ColliderPool& colliders,
   }
 }
 
+// Whether projectSingleContacts can take this pool's colliders: it tells a plane from a sphere by
+// the radius (0 for a plane), which the pool's colliders must then keep to.
+bool fitsLanes(const ColliderPool& colliders) {
+  for (std::size_t k = 0; k < colliders.size(); ++k) {
+    const bool plane = colliders.shape[k] == ColliderShape::Plane && colliders.radius[k] == 0;
+    const bool sphere = colliders.shape[k] == ColliderShape::Sphere && colliders.radius[k] > 0;
+    if (!plane && !sphere) return false;
+  }
+  return true;
+}
+
+// The runs that start in contacts [begin, end), each finished even past `end`. Stretches of
+// particles with one contact each, most of a pool, go to the lanes where `lanes` allows
+// (collider_contact_lanes.h): they share nothing, and each lane gives projectRun's bits.
+void projectRunsStartingIn(ContactPool& contacts, const ColliderPool& colliders,
+                           ParticlePool& particles, std::size_t begin, std::size_t end,
+                           bool lanes) {
+  const Index* particleOf = contacts.particle.data();
+  const std::size_t count = contacts.size();
+  std::size_t c = begin;
+  while (c != end && c > 0 && particleOf[c - 1] == particleOf[c]) ++c;  // the task before's
+  while (c < end) {
+    // Single runs from c on: each contact's particle differs from the next one's.
+    std::size_t single = c;
+    while (lanes && single != end &&
+           (single + 1 == count || particleOf[single + 1] != particleOf[single]))
+      ++single;
+    if (single > c) projectSingleContacts(contacts, colliders, particles, c, single);
+    if (single == end) return;
+    std::size_t last = single;
+    while (last + 1 < count && particleOf[last + 1] == particleOf[single]) ++last;
+    projectRun(contacts, colliders, particles, single, last);
+    c = last + 1;
+  }
+}
+
 }  // namespace
 
 void detectContacts(ContactPool& contacts, const ColliderPool& colliders,
@@ -181,32 +217,12 @@ void projectContacts(ContactPool& contacts, const ColliderPool& colliders, Parti
     return;
   }
   // A task owns the runs that start in its range (finishing a run past the range's end), so each
-  // particle is written by one task and its contacts go in pool order. Stretches of particles
-  // with one contact each, most of a pool, go to the lanes (collider_contact_lanes.h): they share
-  // nothing, and each lane gives projectRun's bits.
-  const Index* particleOf = contacts.particle.data();
+  // particle is written by one task and its contacts go in pool order.
+  const bool lanes = fitsLanes(colliders);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, kContactGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      std::size_t c = r.begin();
-                      if (c > 0)
-                        while (c != r.end() && particleOf[c - 1] == particleOf[c]) ++c;
-                      while (c != r.end()) {
-                        // Single runs from c on: each contact's particle differs from the next
-                        // one's.
-                        std::size_t single = c;
-                        while (single != r.end() && (single + 1 == count ||
-                                                     particleOf[single + 1] != particleOf[single]))
-                          ++single;
-                        if (single > c)
-                          projectSingleContacts(contacts, colliders, particles, c, single);
-                        if (single == r.end()) break;
-                        std::size_t last = single;
-                        while (last + 1 < count && particleOf[last + 1] == particleOf[single])
-                          ++last;
-                        projectRun(contacts, colliders, particles, single, last);
-                        c = last + 1;
-                        if (c > r.end()) break;
-                      }
+                      projectRunsStartingIn(contacts, colliders, particles, r.begin(), r.end(),
+                                            lanes);
                     });
 }
 
@@ -277,7 +293,7 @@ std::size_t addReachedContacts(ContactPool& contacts, const ColliderPool& collid
       [](Found a, Found b) {
         return Found{a.missing || b.missing, a.added + b.added};
       });
-  if (!found.missing) return 0;
+  if (!found.missing || found.added == 0) return 0;
   // Pass 2, from the last particle back: each run moves up by the contacts added before its end
   // (never down, so moving back to front overwrites nothing still to be read), and the new runs
   // are written in the gaps, in collider order. Runs before the first new one stay where they are.

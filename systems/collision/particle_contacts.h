@@ -49,10 +49,11 @@ bool contactsMissing(const ContactPool& contacts, const ColliderPool& colliders,
 // The re-detection after the multigrid cascade, done in place: when contactsMissing would say so,
 // every free particle without a contact gets the contacts detectContacts(…, reached = p) would
 // give it, inserted into the pool in particle order, and every contact's multiplier and friction
-// start again at zero. The pool then equals a full re-detection's except that a particle that had
-// contacts keeps exactly those (the full one would add a second collider its motion to p reached,
-// and drop a contact that only an earlier re-detection's reach had made). Returns the contacts
-// added (0: the pool was left as it was).
+// start again at zero. The pool then has a full re-detection's contacts except that a particle
+// that had contacts keeps exactly those (the full one would add a second collider its motion to p
+// reached, and drop a contact that only an earlier re-detection's reach had made), and kept
+// contacts keep the normal and depth of their last projection (the projection that follows sets
+// both anew). Returns the contacts added (0: the pool was left as it was).
 std::size_t addReachedContacts(ContactPool& contacts, const ColliderPool& colliders,
                                const ParticlePool& particles, Real h);
 

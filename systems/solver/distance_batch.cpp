@@ -62,10 +62,11 @@ using distance_lanes::multiplierScale;
                                          lambda, wa, wb, inverseH2, b.unilateral);
     if (!hard) _mm256_storeu_ps(b.lambda + k, _mm256_fmadd_ps(scale, length, lambda));
     // Bit j set: that end of constraint j is free and moves, and is written back. A constraint
-    // with a zero step leaves both ends where they are (x + 0·d = x), so its stores are skipped:
+    // with a zero step leaves finite ends where they are (x + 0·d = x), so its stores are skipped:
     // a coarse unilateral limit grips in about a third of its lanes (36% on the 128² hanging
-    // cloth), and a batch of slack limits writes nothing.
-    const int moves = _mm256_movemask_ps(_mm256_cmp_ps(scale, zero, _CMP_NEQ_OQ));
+    // cloth), and a batch of slack limits writes nothing. A NaN step is stored, as before, for
+    // the non-finite repairs to find.
+    const int moves = _mm256_movemask_ps(_mm256_cmp_ps(scale, zero, _CMP_NEQ_UQ));
     const int freeA = moves & _mm256_movemask_ps(_mm256_cmp_ps(wa, zero, _CMP_NEQ_OQ));
     const int freeB = moves & _mm256_movemask_ps(_mm256_cmp_ps(wb, zero, _CMP_NEQ_OQ));
     if ((freeA | freeB) == 0) continue;

@@ -49,6 +49,7 @@ void projectLimit(ParticlePool& particles, const std::array<Index, 2>& edge, Rea
 // the other at the next colour, and under load the 256² cascade took 1.4–1.7 ms instead of
 // 0.9–1.0: bench/results/2core-AMD-EPYC/solver_speed.md §12.)
 constexpr std::size_t kSerialEdges = 8192;
+constexpr std::size_t kSerialParticles = 8192;
 
 // The limits' passes over coarse particles and edges (setContactLimits) are one loop each, not
 // a sequence of colors, and cost 15–20 ns an item (square roots): on both threads from this
@@ -393,10 +394,11 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
       projections += level.edges.size() * static_cast<std::size_t>(sweeps) +
                      (sweeps > 0 ? level.tetherPin.size() : 0);
       if (afterLevel) afterLevel(context, level.particles, CascadeMoment::AfterLevel);
-      // After a level swept on one thread, its particles are in that thread's cache: the
-      // prolongation stays there too (on both threads it took twice as long, 128² level 2).
-      prolong(hierarchy.levels[l - 1], level.edges.size() < kSerialEdges, particles, start,
-              contactOffsets);
+      // A prolongation of a few thousand particles stays on the calling thread, which has just
+      // written their parents (on both threads the 3,136 of a 128² cloth's level 1 took twice as
+      // long).
+      prolong(hierarchy.levels[l - 1], hierarchy.levels[l - 1].fine.size() < kSerialParticles,
+              particles, start, contactOffsets);
     }
     if (afterLevel) afterLevel(context, {}, CascadeMoment::AfterCascade);
   }

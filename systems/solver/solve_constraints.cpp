@@ -57,9 +57,10 @@ void projectAllContacts(SolvePools& pools, SolverKind kind) {
 // particle the cascade pulls toward a collider is held by its contact; particles with primitive
 // contacts keep the place their contacts gave them. The cascade moves particles by whole coarse
 // corrections, farther than the collider contacts' reach beyond their predicted motion: where it
-// carried one without a contact toward a collider, the pool is refilled over the motion to where
-// it is now (else the particle would end the solve inside and count as a missed contact). The
-// new pool starts its multipliers at zero, so friction forgets the cascade's normal pushes.
+// carried one without a contact toward a collider, that particle's contacts over the motion to
+// where it is now are added to the pool (else it would end the solve inside and count as a
+// missed contact; a particle that has contacts keeps just those). Every multiplier then starts
+// again at zero, so friction forgets the cascade's normal pushes.
 void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepContext& context,
                 SolveReport& report) {
   const auto start = std::chrono::steady_clock::now();
