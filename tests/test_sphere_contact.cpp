@@ -105,6 +105,28 @@ TEST(GroundContact, RedetectionCoversWhereTheSolveCarriedAParticle) {
   EXPECT_EQ(particles.p[1], Vec3(1, 1, 0));
 }
 
+// n free particles in the 2 m box about (0, height, 0), `spread` high either way, falling at 0–6
+// m/s, with a sideways drift of up to 1 m/s each way where `drift`.
+ParticlePool fallingCloud(std::size_t n, std::mt19937& random, double height, double spread,
+                          bool drift) {
+  std::uniform_real_distribution<double> unit(-1, 1);
+  ParticlePool particles;
+  particles.append(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    // One draw per statement: the order of a constructor's arguments is unspecified.
+    const Real x = Real(unit(random));
+    const Real y = Real(height + spread * unit(random));
+    const Real z = Real(unit(random));
+    particles.x[i] = Vec3(x, y, z);
+    const Real down = Real(-3 * (unit(random) + 1));
+    const Real across = drift ? Real(unit(random)) : Real(0);
+    const Real along = drift ? Real(unit(random)) : Real(0);
+    particles.v[i] = Vec3(across, down, along);
+    particles.w[i] = 1;
+  }
+  return particles;
+}
+
 // The in-place re-detection against the full one: 3,000 particles around a sphere and a plane,
 // falling at random speeds, the pool detected over their predicted motion, then every free one
 // carried somewhere at random (some into reach, some not). Where the full re-detection gives a
@@ -119,13 +141,8 @@ TEST(SphereContact, InPlaceRedetectionMatchesTheFullOne) {
   std::mt19937 random(5);
   std::uniform_real_distribution<double> unit(-1, 1);
   const std::size_t n = 3000;
-  ParticlePool particles;
-  particles.append(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    particles.x[i] = Vec3(Real(unit(random)), Real(0.55 + 0.5 * unit(random)), Real(unit(random)));
-    particles.v[i] = Vec3(0, Real(-3 * (unit(random) + 1)), 0);
-    particles.w[i] = i % 50 == 0 ? 0 : 1;
-  }
+  ParticlePool particles = fallingCloud(n, random, 0.55, 0.5, false);
+  for (std::size_t i = 0; i < n; i += 50) particles.w[i] = 0;
   const Real h = Real(1) / 60;
   ContactPool inPlace;
   // Some particles are looked for farther (as liquid particles are): both detections use it.
@@ -197,15 +214,8 @@ TEST(SphereContact, LanesGiveTheScalarProjectionsBits) {
   colliders.append(ColliderShape::Sphere, Vec3(0, Real(0.5), 0), Vec3::Zero(), Real(0.5),
                    Real(0.01), Real(0.5), Real(0.6));
   std::mt19937 random(9);
-  std::uniform_real_distribution<double> unit(-1, 1);
   const std::size_t n = 4000;
-  ParticlePool particles;
-  particles.append(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    particles.x[i] = Vec3(Real(unit(random)), Real(0.5 + 0.6 * unit(random)), Real(unit(random)));
-    particles.v[i] = Vec3(Real(unit(random)), Real(-3 * (unit(random) + 1)), Real(unit(random)));
-    particles.w[i] = 1;
-  }
+  ParticlePool particles = fallingCloud(n, random, 0.5, 0.6, true);
   // One particle at rest at the sphere's centre, where its normal is the (0, 1, 0) of surfaceAt.
   particles.x[0] = Vec3(0, Real(0.5), 0);
   particles.v[0] = Vec3::Zero();

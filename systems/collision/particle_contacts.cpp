@@ -101,6 +101,16 @@ inline void projectRun(ContactPool& contacts, const ColliderPool& colliders,
   }
 }
 
+// Whether particle i gets a contact with collider k: its motion from x to `predicted`, or to
+// `reached` where given, comes within reach (plus its extra reach, where the pool has one).
+inline bool needsContact(const ContactPool& contacts, const ColliderPool& colliders,
+                         const ParticlePool& particles, std::size_t i, std::size_t k,
+                         const Vec3& predicted, const Vec3* reached) {
+  const Real extra = contacts.extraReach.empty() ? Real(0) : contacts.extraReach[i];
+  return inReach(colliders, k, particles.x[i], predicted, extra) ||
+         (reached && inReach(colliders, k, particles.x[i], *reached, extra));
+}
+
 // Whether projectSingleContacts can take this pool's colliders: it tells a plane from a sphere by
 // the radius (0 for a plane), which the pool's colliders must then keep to.
 bool fitsLanes(const ColliderPool& colliders) {
@@ -142,9 +152,8 @@ void projectRunsStartingIn(ContactPool& contacts, const ColliderPool& colliders,
 void detectContacts(ContactPool& contacts, const ColliderPool& colliders,
                     const ParticlePool& particles, Real h, std::span<const Vec3> reached) {
   auto touches = [&](std::size_t i, std::size_t k, const Vec3& predicted) {
-    const Real extra = contacts.extraReach.empty() ? Real(0) : contacts.extraReach[i];
-    return inReach(colliders, k, particles.x[i], predicted, extra) ||
-           (!reached.empty() && inReach(colliders, k, particles.x[i], reached[i], extra));
+    return needsContact(contacts, colliders, particles, i, k, predicted,
+                        reached.empty() ? nullptr : &reached[i]);
   };
   const std::size_t n = particles.size();
   contacts.runStart.resize(n + 1);
@@ -279,12 +288,11 @@ std::size_t addReachedContacts(ContactPool& contacts, const ColliderPool& collid
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
           count[i] = 0;
           if (particles.w[i] == 0 || contacts.runStart[i] != contacts.runStart[i + 1]) continue;
-          const Real extra = contacts.extraReach.empty() ? Real(0) : contacts.extraReach[i];
           const Vec3 predicted = particles.x[i] + h * particles.v[i];
           for (std::size_t k = 0; k < colliders.size(); ++k) {
             sum.missing = sum.missing || inReach(colliders, k, particles.x[i], particles.p[i]);
-            count[i] += inReach(colliders, k, particles.x[i], predicted, extra) ||
-                        inReach(colliders, k, particles.x[i], particles.p[i], extra);
+            count[i] +=
+                needsContact(contacts, colliders, particles, i, k, predicted, &particles.p[i]);
           }
           sum.added += count[i];
         }
@@ -306,11 +314,9 @@ std::size_t addReachedContacts(ContactPool& contacts, const ColliderPool& collid
     const Index oldBegin = contacts.runStart[i];
     if (count[i] > 0) {
       const Vec3 predicted = particles.x[i] + h * particles.v[i];
-      const Real extra = contacts.extraReach.empty() ? Real(0) : contacts.extraReach[i];
       Index c = write - count[i];
       for (std::size_t k = 0; k < colliders.size(); ++k) {
-        if (!inReach(colliders, k, particles.x[i], predicted, extra) &&
-            !inReach(colliders, k, particles.x[i], particles.p[i], extra))
+        if (!needsContact(contacts, colliders, particles, i, k, predicted, &particles.p[i]))
           continue;
         const SurfacePoint surface = surfaceAt(colliders, k, predicted);
         contacts.particle[c] = static_cast<Index>(i);
