@@ -42,6 +42,9 @@ struct ContactPool {
   // Scratch of the re-detection after the multigrid cascade (addReachedContacts): per particle,
   // the contacts it gains.
   std::vector<Index> reachedCount;
+  // Scratch of the detection in lanes: per particle, bit k set where it gets a contact with
+  // collider k.
+  std::vector<Index> reachedColliders;
 
   std::size_t size() const { return particle.size(); }
   // Sizes every column to n. Within the reserved capacity this never allocates.

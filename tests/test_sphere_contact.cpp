@@ -266,6 +266,85 @@ TEST(SphereContact, LanesGiveTheScalarProjectionsBits) {
   for (std::size_t i = 0; i < n; ++i) ASSERT_TRUE(scalar.p[i] == lanes.p[i]) << i;
 }
 
+// Detection and the missed-contact repair in lanes (collider_contact_lanes.h) against their
+// scalar code, which runs where a pool does not fit the lanes: a sphere of radius 0 far from every
+// particle (no contact with it) sends the same pool to the scalar code. 4,000 particles around a
+// sphere and two planes, some pinned, some looked for farther; with and without a second end
+// (`reached`). The pools are equal contact for contact (particle, collider, normal, depth, bit for
+// bit), and so are the repairs of particles moved into the colliders without a contact.
+TEST(SphereContact, DetectionInLanesGivesTheScalarPool) {
+  ColliderPool colliders;
+  colliders.append(ColliderShape::Plane, Vec3::Zero(), Vec3(0, 1, 0), 0, Real(0.01), Real(0.3),
+                   Real(0.5));
+  colliders.append(ColliderShape::Plane, Vec3(Real(0.6), 0, 0), Vec3(-1, 1, 0).normalized(), 0,
+                   Real(0.01), Real(0.8), Real(0.9));
+  colliders.append(ColliderShape::Sphere, Vec3(0, Real(0.5), 0), Vec3::Zero(), Real(0.5),
+                   Real(0.01), Real(0.5), Real(0.6));
+  ColliderPool scalarColliders = colliders;
+  scalarColliders.append(ColliderShape::Sphere, Vec3(100, 100, 100), Vec3::Zero(), 0, Real(0.01),
+                         Real(0.5), Real(0.5));
+  std::mt19937 random(17);
+  const std::size_t n = 4000;
+  ParticlePool particles = fallingCloud(n, random, 0.5, 0.6, true);
+  for (std::size_t i = 0; i < n; i += 40) particles.w[i] = 0;
+  particles.x[1] = Vec3(0, Real(0.5), 0);  // at the sphere's centre: the normal (0, 1, 0)
+  particles.v[1] = Vec3::Zero();
+  const Real h = Real(1) / 60;
+  // Where the particles are carried later in a substep: a second end to reach.
+  std::vector<Vec3> reached(n);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Real dx = Real(0.2 * unit(random));
+    const Real dy = Real(0.2 * unit(random));
+    reached[i] = particles.x[i] + Vec3(dx, dy, 0);
+  }
+  for (const bool extra : {false, true}) {
+    for (const bool withReached : {false, true}) {
+      ContactPool lanes, scalar;
+      if (extra) {
+        lanes.extraReach.assign(n, 0);
+        for (std::size_t i = 0; i < n; i += 7) lanes.extraReach[i] = Real(0.05);
+        scalar.extraReach = lanes.extraReach;
+      }
+      const std::span<const Vec3> to =
+          withReached ? std::span<const Vec3>(reached) : std::span<const Vec3>();
+      detectContacts(lanes, colliders, particles, h, to);
+      detectContacts(scalar, scalarColliders, particles, h, to);
+      ASSERT_EQ(lanes.size(), scalar.size()) << extra << withReached;
+      ASSERT_GT(lanes.size(), 1000u);
+      EXPECT_TRUE(lanes.runStart == scalar.runStart);
+      std::size_t multiple = 0;
+      for (std::size_t c = 0; c < lanes.size(); ++c) {
+        ASSERT_EQ(lanes.particle[c], scalar.particle[c]) << c;
+        ASSERT_EQ(lanes.collider[c], scalar.collider[c]) << c;
+        ASSERT_TRUE(lanes.normal[c] == scalar.normal[c]) << c;
+        ASSERT_EQ(lanes.depth[c], scalar.depth[c]) << c;
+        EXPECT_EQ(lanes.lambda[c], 0);
+        EXPECT_EQ(lanes.friction[c], Vec3::Zero());
+        multiple += c > 0 && lanes.particle[c] == lanes.particle[c - 1];
+      }
+      EXPECT_GT(multiple, 20u);
+      const std::size_t atCentre = lanes.runStart[1];
+      ASSERT_LT(atCentre, lanes.runStart[2]);
+      EXPECT_EQ(lanes.normal[lanes.runStart[2] - 1], Vec3(0, 1, 0));
+      // The solve's end: particles moved at random, some into colliders they have no contact
+      // with; each is pushed out by both, to the same bits, and counted the same.
+      ParticlePool laneMoved = particles, scalarMoved = particles;
+      for (std::size_t i = 0; i < n; ++i) {
+        const Real dx = Real(0.5 * unit(random));
+        const Real dy = Real(0.5 * unit(random));
+        laneMoved.p[i] = scalarMoved.p[i] = particles.x[i] + Vec3(dx, dy, 0);
+      }
+      const std::size_t repairedByLanes = resolveMissedContacts(lanes, colliders, laneMoved);
+      const std::size_t repairedByScalar =
+          resolveMissedContacts(scalar, scalarColliders, scalarMoved);
+      EXPECT_EQ(repairedByLanes, repairedByScalar);
+      EXPECT_GT(repairedByLanes, 50u);
+      for (std::size_t i = 0; i < n; ++i) ASSERT_TRUE(laneMoved.p[i] == scalarMoved.p[i]) << i;
+    }
+  }
+}
+
 TEST(SphereContact, RejectsBadSpheres) {
   World world;
   SphereCollider bad;

@@ -18,7 +18,181 @@ namespace {
   return std::is_same_v<Real, float> ? x + (y + z) : (x + y) + z;
 }
 
+// surfaceAt's signed gap of y to a collider's contact surface: the plane's n · (y − point) −
+// thickness, or the sphere's |y − centre| − radius − thickness.
+template <bool Plane>
+[[gnu::always_inline]] inline Real gapTo(const Real* point, const Real* normal, Real radius,
+                                         Real thickness, Real yx, Real yy, Real yz) {
+  const Real ox = yx - point[0], oy = yy - point[1], oz = yz - point[2];
+  if constexpr (Plane)
+    return sumOfThree(normal[0] * ox, normal[1] * oy, normal[2] * oz) - thickness;
+  return std::sqrt(sumOfThree(ox * ox, oy * oy, oz * oz)) - radius - thickness;
+}
+
+// inReach of particle_contacts.cpp for a motion from x to e whose start's gap is known:
+// min(gap(x), gap(e)) < |e − x| + reach + extra, with std::min's choice.
+template <bool Plane>
+[[gnu::always_inline]] inline bool reaches(const Real* point, const Real* normal, Real radius,
+                                           Real thickness, Real contactReach, Real extra,
+                                           const Real* x, Real startGap, Real ex, Real ey,
+                                           Real ez) {
+  const Real mx = ex - x[0], my = ey - x[1], mz = ez - x[2];
+  const Real reach = std::sqrt(sumOfThree(mx * mx, my * my, mz * mz)) + contactReach + extra;
+  const Real endGap = gapTo<Plane>(point, normal, radius, thickness, ex, ey, ez);
+  return (endGap < startGap ? endGap : startGap) < reach;
+}
+
+// countCollidersInReach's loop for one collider, with or without a second end to reach and an
+// extra reach per particle (a choice made outside the loop: a load under a mask costs more than
+// the rest of the lane on some machines).
+// Inlined into each instruction set's build of its caller.
+template <bool Plane, bool Reached, bool Extra>
+[[gnu::always_inline]] inline void addCollidersInReach(
+    const Real* point, const Real* normal, Real radius, Real thickness, const Real* x,
+    const Real* v, const Real* w, const Real* to, Real h, Real contactReach, const Real* extraReach,
+    std::size_t begin, std::size_t end, Index bit, Index* count, Index* colliderBits) {
+#pragma omp simd
+  for (std::size_t i = begin; i < end; ++i) {
+    const Real* xi = x + 3 * i;
+    const Real extra = Extra ? extraReach[i] : Real(0);
+    const Real startGap = gapTo<Plane>(point, normal, radius, thickness, xi[0], xi[1], xi[2]);
+    const Real* vi = v + 3 * i;
+    bool touches =
+        reaches<Plane>(point, normal, radius, thickness, contactReach, extra, xi, startGap,
+                       xi[0] + h * vi[0], xi[1] + h * vi[1], xi[2] + h * vi[2]);
+    if constexpr (Reached) {
+      const Real* ti = to + 3 * i;
+      touches = touches | reaches<Plane>(point, normal, radius, thickness, contactReach, extra, xi,
+                                         startGap, ti[0], ti[1], ti[2]);
+    }
+    const bool counted = (w[i] != 0) & touches;
+    count[i] += counted ? Index(1) : Index(0);
+    colliderBits[i] |= counted ? bit : Index(0);
+  }
+}
+
+// markInsideColliders' loop for one collider.
+template <bool Plane>
+[[gnu::always_inline]] inline void markInside(const Real* point, const Real* normal, Real radius,
+                                              Real thickness, const Real* p, std::size_t begin,
+                                              std::size_t end, std::uint8_t* inside) {
+#pragma omp simd
+  for (std::size_t i = begin; i < end; ++i) {
+    const Real* y = p + 3 * i;
+    const Real gap = gapTo<Plane>(point, normal, radius, thickness, y[0], y[1], y[2]);
+    inside[i - begin] |= gap < 0 ? std::uint8_t(1) : std::uint8_t(0);
+  }
+}
+
 }  // namespace
+
+#if defined(__x86_64__)
+[[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
+#endif
+void countCollidersInReach(const ColliderPool& colliders, const ParticlePool& particles, Real h,
+                           Real contactReach, const Real* extraReach, const Vec3* reached,
+                           std::size_t begin, std::size_t end, Index* count,
+                           Index* colliderBits) {
+  const Real* x = particles.x.data()->data();
+  const Real* v = particles.v.data()->data();
+  const Real* w = particles.w.data();
+  const Real* to = reached ? reached->data() : nullptr;
+  for (std::size_t i = begin; i < end; ++i) count[i] = colliderBits[i] = 0;
+  for (std::size_t k = 0; k < colliders.size(); ++k) {
+    const Real* point = colliders.point[k].data();
+    const Real* normal = colliders.normal[k].data();
+    const Real radius = colliders.radius[k], thickness = colliders.thickness[k];
+    const Index bit = Index(1) << k;
+    // Every choice is a template argument, spelt out here: a lambda would be compiled apart,
+    // for the baseline instruction set, outside this function's builds.
+#define NUCLEON_ADD_COLLIDER(PLANE, REACHED, EXTRA)                                            \
+  addCollidersInReach<PLANE, REACHED, EXTRA>(point, normal, radius, thickness, x, v, w, to, h, \
+                                             contactReach, extraReach, begin, end, bit, count, \
+                                             colliderBits)
+    const int variant = (radius == 0) * 4 + (to != nullptr) * 2 + (extraReach != nullptr);
+    switch (variant) {
+      case 0:
+        NUCLEON_ADD_COLLIDER(false, false, false);
+        break;
+      case 1:
+        NUCLEON_ADD_COLLIDER(false, false, true);
+        break;
+      case 2:
+        NUCLEON_ADD_COLLIDER(false, true, false);
+        break;
+      case 3:
+        NUCLEON_ADD_COLLIDER(false, true, true);
+        break;
+      case 4:
+        NUCLEON_ADD_COLLIDER(true, false, false);
+        break;
+      case 5:
+        NUCLEON_ADD_COLLIDER(true, false, true);
+        break;
+      case 6:
+        NUCLEON_ADD_COLLIDER(true, true, false);
+        break;
+      default:
+        NUCLEON_ADD_COLLIDER(true, true, true);
+        break;
+    }
+#undef NUCLEON_ADD_COLLIDER
+  }
+}
+
+#if defined(__x86_64__)
+[[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
+#endif
+void setPredictedSurfaces(ContactPool& contacts, const ColliderPool& colliders,
+                          const ParticlePool& particles, Real h, std::size_t begin,
+                          std::size_t end) {
+  const Index* particleOf = contacts.particle.data();
+  const Index* colliderOf = contacts.collider.data();
+  Real* contactNormal = contacts.normal.data()->data();
+  Real* depth = contacts.depth.data();
+  const Real* point = colliders.point.data()->data();
+  const Real* planeNormal = colliders.normal.data()->data();
+  const Real* radius = colliders.radius.data();
+  const Real* thickness = colliders.thickness.data();
+  const Real* x = particles.x.data()->data();
+  const Real* v = particles.v.data()->data();
+#pragma omp simd
+  for (std::size_t c = begin; c < end; ++c) {
+    const Index i = 3 * particleOf[c], k = colliderOf[c], k3 = 3 * k;
+    // The prediction as predictPositions makes it, then surfaceAt as in projectSingleContacts.
+    const Real yx = x[i] + h * v[i], yy = x[i + 1] + h * v[i + 1], yz = x[i + 2] + h * v[i + 2];
+    const Real ox = yx - point[k3], oy = yy - point[k3 + 1], oz = yz - point[k3 + 2];
+    const bool plane = radius[k] == 0;
+    const Real planeGap =
+        sumOfThree(planeNormal[k3] * ox, planeNormal[k3 + 1] * oy, planeNormal[k3 + 2] * oz) -
+        thickness[k];
+    const Real distance = std::sqrt(sumOfThree(ox * ox, oy * oy, oz * oz));
+    const bool away = distance > Real(1e-12);
+    const Real sphereGap = distance - radius[k] - thickness[k];
+    contactNormal[3 * c] = plane ? planeNormal[k3] : away ? ox / distance : Real(0);
+    contactNormal[3 * c + 1] = plane ? planeNormal[k3 + 1] : away ? oy / distance : Real(1);
+    contactNormal[3 * c + 2] = plane ? planeNormal[k3 + 2] : away ? oz / distance : Real(0);
+    depth[c] = -(plane ? planeGap : sphereGap);
+  }
+}
+
+#if defined(__x86_64__)
+[[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
+#endif
+void markInsideColliders(const ColliderPool& colliders, const ParticlePool& particles,
+                         std::size_t begin, std::size_t end, std::uint8_t* inside) {
+  const Real* p = particles.p.data()->data();
+  for (std::size_t i = begin; i < end; ++i) inside[i - begin] = 0;
+  for (std::size_t k = 0; k < colliders.size(); ++k) {
+    const Real* point = colliders.point[k].data();
+    const Real* normal = colliders.normal[k].data();
+    const Real radius = colliders.radius[k], thickness = colliders.thickness[k];
+    if (radius == 0)
+      markInside<true>(point, normal, radius, thickness, p, begin, end, inside);
+    else
+      markInside<false>(point, normal, radius, thickness, p, begin, end, inside);
+  }
+}
 
 #if defined(__x86_64__)
 [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 
 #include "components/collider_pool.h"
 #include "components/contact_pool.h"
@@ -19,5 +20,30 @@ namespace nucleon {
 // radius: the lanes tell them apart by the radius (projectContacts checks it).
 void projectSingleContacts(ContactPool& contacts, const ColliderPool& colliders,
                            ParticlePool& particles, std::size_t begin, std::size_t end);
+
+// Detection's predicate (particle_contacts.cpp, needsContact) for particles [begin, end) at once:
+// count[i] is how many colliders particle i gets a contact with, those whose contact surface its
+// motion x → x + h v comes within reach of (the motion's length + `contactReach` + extraReach[i],
+// from either end), or its motion x → reached[i], where `reached` is given; 0 where w = 0; and
+// bit k of colliderBits[i] says whether collider k is one of them. The gaps, lengths and
+// comparisons are the scalar predicate's operations in its order, so every count is the scalar
+// one. `extraReach` may be null (no extra reach). Colliders as above, and at most kLaneColliders.
+constexpr std::size_t kLaneColliders = 32;
+void countCollidersInReach(const ColliderPool& colliders, const ParticlePool& particles, Real h,
+                           Real contactReach, const Real* extraReach, const Vec3* reached,
+                           std::size_t begin, std::size_t end, Index* count, Index* colliderBits);
+
+// Each contact's normal and depth (−gap) at its particle's predicted position x + h v, for
+// contacts [begin, end): what detectContacts stores with a new contact, the same bits as
+// surfaceAt. Colliders as above.
+void setPredictedSurfaces(ContactPool& contacts, const ColliderPool& colliders,
+                          const ParticlePool& particles, Real h, std::size_t begin,
+                          std::size_t end);
+
+// inside[i − begin] for particles [begin, end): whether p lies inside some collider's contact
+// surface (gap < 0), each collider's gap taken at p as it is, the test that starts
+// resolveMissedContacts' repair of a particle. Colliders as above.
+void markInsideColliders(const ColliderPool& colliders, const ParticlePool& particles,
+                         std::size_t begin, std::size_t end, std::uint8_t* inside);
 
 }  // namespace nucleon

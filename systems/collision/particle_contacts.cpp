@@ -1,6 +1,8 @@
 #include "systems/collision/particle_contacts.h"
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -16,6 +18,8 @@ namespace {
 
 constexpr std::size_t kParticleGrain = 4096;
 constexpr std::size_t kContactGrain = 512;
+// The particles resolveMissedContacts tests in lanes at a time, their flags on the stack.
+constexpr std::size_t kInsideChunk = 2048;
 
 // Signed gap C = distance to the surface − thickness (negative: inside) and the outward normal.
 struct SurfacePoint {
@@ -111,9 +115,11 @@ inline bool needsContact(const ContactPool& contacts, const ColliderPool& collid
          (reached && inReach(colliders, k, particles.x[i], *reached, extra));
 }
 
-// Whether projectSingleContacts can take this pool's colliders: it tells a plane from a sphere by
-// the radius (0 for a plane), which the pool's colliders must then keep to.
+// Whether the lanes (collider_contact_lanes.h) can take this pool's colliders: they tell a plane
+// from a sphere by the radius (0 for a plane), which the pool's colliders must then keep to, and
+// mark the colliders a particle reaches in one word.
 bool fitsLanes(const ColliderPool& colliders) {
+  if (colliders.size() > kLaneColliders) return false;
   for (std::size_t k = 0; k < colliders.size(); ++k) {
     const bool plane = colliders.shape[k] == ColliderShape::Plane && colliders.radius[k] == 0;
     const bool sphere = colliders.shape[k] == ColliderShape::Sphere && colliders.radius[k] > 0;
@@ -162,9 +168,20 @@ void detectContacts(ContactPool& contacts, const ColliderPool& colliders,
     contacts.resize(0);
     return;
   }
-  // Pass 1: contacts per particle. Same prediction as predictPositions, bit for bit.
+  // Pass 1: contacts per particle. Same prediction as predictPositions, bit for bit. Planes and
+  // spheres are counted in lanes, which give the scalar predicate's counts.
+  const bool lanes = fitsLanes(colliders);
+  if (lanes) contacts.reachedColliders.resize(n);
+  const Real* extraReach = contacts.extraReach.empty() ? nullptr : contacts.extraReach.data();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kParticleGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
+                      if (lanes) {
+                        countCollidersInReach(colliders, particles, h, kContactReach, extraReach,
+                                              reached.empty() ? nullptr : reached.data(), r.begin(),
+                                              r.end(), contacts.runStart.data(),
+                                              contacts.reachedColliders.data());
+                        return;
+                      }
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
                         Index count = 0;
                         if (particles.w[i] != 0) {
@@ -191,25 +208,41 @@ void detectContacts(ContactPool& contacts, const ColliderPool& colliders,
   contacts.runStart[n] = total;
   contacts.resize(total);
   // Pass 2: fill the runs.
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kParticleGrain),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        Index c = contacts.runStart[i];
-                        if (c == contacts.runStart[i + 1]) continue;
-                        const Vec3 predicted = particles.x[i] + h * particles.v[i];
-                        for (std::size_t k = 0; k < colliders.size(); ++k) {
-                          if (!touches(i, k, predicted)) continue;
-                          const SurfacePoint s = surfaceAt(colliders, k, predicted);
-                          contacts.particle[c] = static_cast<Index>(i);
-                          contacts.collider[c] = static_cast<Index>(k);
-                          contacts.normal[c] = s.normal;
-                          contacts.depth[c] = -s.gap;
-                          contacts.lambda[c] = 0;
-                          contacts.friction[c] = Vec3::Zero();
-                          ++c;
-                        }
-                      }
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, kParticleGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        if (lanes) {
+          // The runs from the colliders marked, then their surfaces in lanes.
+          for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            Index c = contacts.runStart[i];
+            for (Index bits = contacts.reachedColliders[i]; bits != 0; bits &= bits - 1, ++c) {
+              contacts.particle[c] = static_cast<Index>(i);
+              contacts.collider[c] = static_cast<Index>(std::countr_zero(bits));
+              contacts.lambda[c] = 0;
+              contacts.friction[c] = Vec3::Zero();
+            }
+          }
+          setPredictedSurfaces(contacts, colliders, particles, h, contacts.runStart[r.begin()],
+                               contacts.runStart[r.end()]);
+          return;
+        }
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          Index c = contacts.runStart[i];
+          if (c == contacts.runStart[i + 1]) continue;
+          const Vec3 predicted = particles.x[i] + h * particles.v[i];
+          for (std::size_t k = 0; k < colliders.size(); ++k) {
+            if (!touches(i, k, predicted)) continue;
+            const SurfacePoint s = surfaceAt(colliders, k, predicted);
+            contacts.particle[c] = static_cast<Index>(i);
+            contacts.collider[c] = static_cast<Index>(k);
+            contacts.normal[c] = s.normal;
+            contacts.depth[c] = -s.gap;
+            contacts.lambda[c] = 0;
+            contacts.friction[c] = Vec3::Zero();
+            ++c;
+          }
+        }
+      });
 }
 
 void projectContacts(ContactPool& contacts, const ColliderPool& colliders, ParticlePool& particles,
@@ -348,20 +381,34 @@ std::size_t addReachedContacts(ContactPool& contacts, const ColliderPool& collid
 std::size_t resolveMissedContacts(const ContactPool& contacts, const ColliderPool& colliders,
                                   ParticlePool& particles) {
   if (colliders.size() == 0) return 0;
+  const bool lanes = fitsLanes(colliders);
+  const auto repair = [&](std::size_t i) {
+    if (particles.w[i] == 0 || contacts.runStart[i] != contacts.runStart[i + 1]) return false;
+    bool moved = false;
+    for (std::size_t k = 0; k < colliders.size(); ++k) {
+      const SurfacePoint s = surfaceAt(colliders, k, particles.p[i]);
+      if (s.gap < 0) {
+        particles.p[i] -= s.gap * s.normal;
+        moved = true;
+      }
+    }
+    return moved;
+  };
   return tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, particles.size(), kParticleGrain), std::size_t{0},
       [&](const tbb::blocked_range<std::size_t>& r, std::size_t repaired) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          if (particles.w[i] == 0 || contacts.runStart[i] != contacts.runStart[i + 1]) continue;
-          bool moved = false;
-          for (std::size_t k = 0; k < colliders.size(); ++k) {
-            const SurfacePoint s = surfaceAt(colliders, k, particles.p[i]);
-            if (s.gap < 0) {
-              particles.p[i] -= s.gap * s.normal;
-              moved = true;
-            }
-          }
-          repaired += moved;
+        if (!lanes) {
+          for (std::size_t i = r.begin(); i != r.end(); ++i) repaired += repair(i);
+          return repaired;
+        }
+        // Most particles are outside every collider: the lanes find the few that are not, and
+        // only those go through the repair (which moves nothing until a gap is negative).
+        std::array<std::uint8_t, kInsideChunk> inside;
+        for (std::size_t begin = r.begin(); begin < r.end(); begin += kInsideChunk) {
+          const std::size_t end = std::min(r.end(), begin + kInsideChunk);
+          markInsideColliders(colliders, particles, begin, end, inside.data());
+          for (std::size_t i = begin; i != end; ++i)
+            if (inside[i - begin]) repaired += repair(i);
         }
         return repaired;
       },

@@ -7,6 +7,8 @@
 #include <tbb/parallel_reduce.h>
 
 namespace nucleon {
+static_assert(sizeof(Vec3) == 3 * sizeof(Real), "positions and velocities are read as flat arrays");
+
 namespace {
 // Particles per task: large enough that scheduling is negligible against the loop body.
 constexpr std::size_t kGrain = 4096;
@@ -31,20 +33,41 @@ void predictPositions(ParticlePool& particles, Real h) {
 
 std::size_t updateState(ParticlePool& particles, Real h) {
   const Real invH = Real(1) / h;
+  // v ← v + (p − (x + h v)) / h, x ← p: component by component, so a block is taken as one flat
+  // array, which the compiler runs in lanes.
+  const Real* p = particles.p.data()->data();
+  Real* x = particles.x.data()->data();
+  Real* v = particles.v.data()->data();
   return tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, particles.size(), kGrain), std::size_t{0},
       [&](const tbb::blocked_range<std::size_t>& r, std::size_t bad) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+        const std::size_t begin = 3 * r.begin(), end = 3 * r.end();
+        // Whether every new position and velocity of the block is finite (y − y is 0 for a
+        // finite y only), as it nearly always is: then the whole block is written in lanes.
+        int finite = 1;
+        for (std::size_t j = begin; j < end; ++j) {
           // Same expression as predictPositions, so an uncorrected particle gets exactly δv = 0.
+          const Real velocity = v[j] + (p[j] - (x[j] + h * v[j])) * invH;
+          finite &= (p[j] - p[j] == 0) & (velocity - velocity == 0);
+        }
+        if (finite) {
+          for (std::size_t j = begin; j < end; ++j) {
+            v[j] = v[j] + (p[j] - (x[j] + h * v[j])) * invH;
+            x[j] = p[j];
+          }
+          return bad;
+        }
+        // A non-finite particle is reset to where it started the substep, at rest.
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
           const Vec3 predicted = particles.x[i] + h * particles.v[i];
-          const Vec3 v = particles.v[i] + (particles.p[i] - predicted) * invH;
-          if (!particles.p[i].allFinite() || !v.allFinite()) {
+          const Vec3 velocity = particles.v[i] + (particles.p[i] - predicted) * invH;
+          if (!particles.p[i].allFinite() || !velocity.allFinite()) {
             particles.v[i].setZero();
             particles.p[i] = particles.x[i];
             ++bad;
             continue;
           }
-          particles.v[i] = v;
+          particles.v[i] = velocity;
           particles.x[i] = particles.p[i];
         }
         return bad;
