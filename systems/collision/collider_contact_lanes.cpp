@@ -84,6 +84,138 @@ template <bool Plane>
   }
 }
 
+// One collider's constants, read once for a stretch of its contacts (rather than gathered lane by
+// lane: most pools hold long stretches of one collider).
+struct Collider {
+  const Real* point;
+  const Real* normal;
+  Real radius, thickness, kinetic, sticking;
+};
+
+inline Collider colliderOf(const ColliderPool& colliders, Index k) {
+  return {colliders.point[k].data(), colliders.normal[k].data(), colliders.radius[k],
+          colliders.thickness[k],    colliders.friction[k],      colliders.staticFriction[k]};
+}
+
+// The end of the stretch of contacts from `first` (< end) on that share first's collider.
+inline std::size_t sameColliderEnd(const ContactPool& contacts, std::size_t first,
+                                   std::size_t end) {
+  const Index* colliderOf = contacts.collider.data();
+  std::size_t last = first + 1;
+  while (last < end && colliderOf[last] == colliderOf[first]) ++last;
+  return last;
+}
+
+// surfaceAt's outward normal at y, given y − point and, for a sphere, |y − point|: the plane's
+// normal, or the direction from the centre ((0, 1, 0) at the centre itself).
+template <bool Plane>
+[[gnu::always_inline]] inline void normalAt(const Collider& collider, Real ox, Real oy, Real oz,
+                                            Real distance, Real& nx, Real& ny, Real& nz) {
+  if constexpr (Plane) {
+    nx = collider.normal[0], ny = collider.normal[1], nz = collider.normal[2];
+  } else {
+    const bool away = distance > Real(1e-12);
+    nx = away ? ox / distance : Real(0);
+    ny = away ? oy / distance : Real(1);
+    nz = away ? oz / distance : Real(0);
+  }
+}
+
+// setPredictedSurfaces over contacts [first, last), all on one collider.
+template <bool Plane>
+[[gnu::always_inline]] inline void setSurfacesOnOne(ContactPool& contacts, const Collider& collider,
+                                                    const ParticlePool& particles, Real h,
+                                                    std::size_t first, std::size_t last) {
+  const Index* particleOf = contacts.particle.data();
+  Real* contactNormal = contacts.normal.data()->data();
+  Real* depth = contacts.depth.data();
+  const Real* x = particles.x.data()->data();
+  const Real* v = particles.v.data()->data();
+#pragma omp simd
+  for (std::size_t c = first; c < last; ++c) {
+    const Index i = 3 * particleOf[c];  // far below 2³² / 3
+    // The prediction as predictPositions makes it, then surfaceAt.
+    const Real yx = x[i] + h * v[i], yy = x[i + 1] + h * v[i + 1], yz = x[i + 2] + h * v[i + 2];
+    const Real ox = yx - collider.point[0], oy = yy - collider.point[1],
+               oz = yz - collider.point[2];
+    const Real distance = Plane ? Real(0) : std::sqrt(sumOfThree(ox * ox, oy * oy, oz * oz));
+    Real nx, ny, nz;
+    normalAt<Plane>(collider, ox, oy, oz, distance, nx, ny, nz);
+    contactNormal[3 * c] = nx;
+    contactNormal[3 * c + 1] = ny;
+    contactNormal[3 * c + 2] = nz;
+    depth[c] = -gapTo<Plane>(collider.point, collider.normal, collider.radius, collider.thickness,
+                             yx, yy, yz);
+  }
+}
+
+// projectSingleContacts over contacts [first, last), all on one collider: the new positions go to
+// the pool's `moved`.
+template <bool Plane>
+[[gnu::always_inline]] inline void projectOnOne(ContactPool& contacts, const Collider& collider,
+                                                const ParticlePool& particles, std::size_t first,
+                                                std::size_t last) {
+  const Index* particleOf = contacts.particle.data();
+  Real* contactNormal = contacts.normal.data()->data();
+  Real* depth = contacts.depth.data();
+  Real* lambda = contacts.lambda.data();
+  Real* friction = contacts.friction.data()->data();
+  const Real* p = particles.p.data()->data();
+  Real* moved = contacts.moved.data()->data();
+  const Real* x = particles.x.data()->data();
+#pragma omp simd
+  for (std::size_t c = first; c < last; ++c) {
+    const Index i = 3 * particleOf[c];  // far below 2³² / 3
+    Real px = p[i], py = p[i + 1], pz = p[i + 2];
+    // surfaceAt: a plane's signed distance, or a sphere's distance from its centre.
+    const Real ox = px - collider.point[0], oy = py - collider.point[1],
+               oz = pz - collider.point[2];
+    const Real distance = Plane ? Real(0) : std::sqrt(sumOfThree(ox * ox, oy * oy, oz * oz));
+    const Real gap = Plane ? sumOfThree(collider.normal[0] * ox, collider.normal[1] * oy,
+                                        collider.normal[2] * oz) -
+                                 collider.thickness
+                           : distance - collider.radius - collider.thickness;
+    Real nx, ny, nz;
+    normalAt<Plane>(collider, ox, oy, oz, distance, nx, ny, nz);
+    contactNormal[3 * c] = nx;
+    contactNormal[3 * c + 1] = ny;
+    contactNormal[3 * c + 2] = nz;
+    depth[c] = -gap;
+    // The push out: C = gap ≥ 0 against an immovable collider, Δλ = −C.
+    const bool inside = gap < 0;
+    px = inside ? px - gap * nx : px;
+    py = inside ? py - gap * ny : py;
+    pz = inside ? pz - gap * nz : pz;
+    const Real pushed = inside ? lambda[c] - gap : lambda[c];
+    lambda[c] = pushed;
+    // Friction over the substep, where there was a normal impulse: the tangential motion had
+    // friction not acted (what it removed so far, F, added back), bounded by μ λ (Coulomb).
+    const Real mx = px - x[i], my = py - x[i + 1], mz = pz - x[i + 2];
+    const Real along = sumOfThree(nx * mx, ny * my, nz * mz);
+    const Real fx = friction[3 * c], fy = friction[3 * c + 1], fz = friction[3 * c + 2];
+    const Real ux = (mx - nx * along) + fx, uy = (my - ny * along) + fy,
+               uz = (mz - nz * along) + fz;
+    const Real length = std::sqrt(sumOfThree(ux * ux, uy * uy, uz * uz));
+    const bool slides = length > collider.sticking * pushed;
+    const Real bound = collider.kinetic * pushed / length;
+    const Real scale = bound < Real(1) ? bound : Real(1);  // std::min(1, bound)
+    const Real rx = slides ? ux * scale : ux, ry = slides ? uy * scale : uy,
+               rz = slides ? uz * scale : uz;
+    Real cx = rx - fx, cy = ry - fy, cz = rz - fz;
+    const Real across = sumOfThree(nx * cx, ny * cy, nz * cz);
+    cx = cx - nx * across;
+    cy = cy - ny * across;
+    cz = cz - nz * across;
+    const bool rubs = !(pushed <= 0);
+    moved[3 * c] = rubs ? px - cx : px;
+    moved[3 * c + 1] = rubs ? py - cy : py;
+    moved[3 * c + 2] = rubs ? pz - cz : pz;
+    friction[3 * c] = rubs ? fx + cx : fx;
+    friction[3 * c + 1] = rubs ? fy + cy : fy;
+    friction[3 * c + 2] = rubs ? fz + cz : fz;
+  }
+}
+
 }  // namespace
 
 #if defined(__x86_64__)
@@ -146,33 +278,14 @@ void countCollidersInReach(const ColliderPool& colliders, const ParticlePool& pa
 void setPredictedSurfaces(ContactPool& contacts, const ColliderPool& colliders,
                           const ParticlePool& particles, Real h, std::size_t begin,
                           std::size_t end) {
-  const Index* particleOf = contacts.particle.data();
-  const Index* colliderOf = contacts.collider.data();
-  Real* contactNormal = contacts.normal.data()->data();
-  Real* depth = contacts.depth.data();
-  const Real* point = colliders.point.data()->data();
-  const Real* planeNormal = colliders.normal.data()->data();
-  const Real* radius = colliders.radius.data();
-  const Real* thickness = colliders.thickness.data();
-  const Real* x = particles.x.data()->data();
-  const Real* v = particles.v.data()->data();
-#pragma omp simd
-  for (std::size_t c = begin; c < end; ++c) {
-    const Index i = 3 * particleOf[c], k = colliderOf[c], k3 = 3 * k;
-    // The prediction as predictPositions makes it, then surfaceAt as in projectSingleContacts.
-    const Real yx = x[i] + h * v[i], yy = x[i + 1] + h * v[i + 1], yz = x[i + 2] + h * v[i + 2];
-    const Real ox = yx - point[k3], oy = yy - point[k3 + 1], oz = yz - point[k3 + 2];
-    const bool plane = radius[k] == 0;
-    const Real planeGap =
-        sumOfThree(planeNormal[k3] * ox, planeNormal[k3 + 1] * oy, planeNormal[k3 + 2] * oz) -
-        thickness[k];
-    const Real distance = std::sqrt(sumOfThree(ox * ox, oy * oy, oz * oz));
-    const bool away = distance > Real(1e-12);
-    const Real sphereGap = distance - radius[k] - thickness[k];
-    contactNormal[3 * c] = plane ? planeNormal[k3] : away ? ox / distance : Real(0);
-    contactNormal[3 * c + 1] = plane ? planeNormal[k3 + 1] : away ? oy / distance : Real(1);
-    contactNormal[3 * c + 2] = plane ? planeNormal[k3 + 2] : away ? oz / distance : Real(0);
-    depth[c] = -(plane ? planeGap : sphereGap);
+  for (std::size_t first = begin; first < end;) {
+    const std::size_t last = sameColliderEnd(contacts, first, end);
+    const Collider collider = colliderOf(colliders, contacts.collider[first]);
+    if (collider.radius == 0)
+      setSurfacesOnOne<true>(contacts, collider, particles, h, first, last);
+    else
+      setSurfacesOnOne<false>(contacts, collider, particles, h, first, last);
+    first = last;
   }
 }
 
@@ -199,77 +312,17 @@ void markInsideColliders(const ColliderPool& colliders, const ParticlePool& part
 #endif
 void projectSingleContacts(ContactPool& contacts, const ColliderPool& colliders,
                            ParticlePool& particles, std::size_t begin, std::size_t end) {
-  const Index* particleOf = contacts.particle.data();
-  const Index* colliderOf = contacts.collider.data();
-  Real* contactNormal = contacts.normal.data()->data();
-  Real* depth = contacts.depth.data();
-  Real* lambda = contacts.lambda.data();
-  Real* friction = contacts.friction.data()->data();
-  const Real* point = colliders.point.data()->data();
-  const Real* planeNormal = colliders.normal.data()->data();
-  const Real* radius = colliders.radius.data();
-  const Real* thickness = colliders.thickness.data();
-  const Real* kinetic = colliders.friction.data();
-  const Real* sticking = colliders.staticFriction.data();
-  const Real* p = particles.p.data()->data();
-  Real* moved = contacts.moved.data()->data();
-  const Real* x = particles.x.data()->data();
-#pragma omp simd
-  for (std::size_t c = begin; c < end; ++c) {
-    const Index i = 3 * particleOf[c], k = colliderOf[c], k3 = 3 * k;  // far below 2³² / 3
-    Real px = p[i], py = p[i + 1], pz = p[i + 2];
-    // surfaceAt: a plane's signed distance, or a sphere's distance from its centre.
-    const Real ox = px - point[k3], oy = py - point[k3 + 1], oz = pz - point[k3 + 2];
-    // A plane's radius is 0, a sphere's positive (ColliderPool): the shape, read as a float lane.
-    const bool plane = radius[k] == 0;
-    const Real planeGap =
-        sumOfThree(planeNormal[k3] * ox, planeNormal[k3 + 1] * oy, planeNormal[k3 + 2] * oz) -
-        thickness[k];
-    const Real distance = std::sqrt(sumOfThree(ox * ox, oy * oy, oz * oz));
-    const bool away = distance > Real(1e-12);
-    const Real sphereGap = distance - radius[k] - thickness[k];
-    const Real gap = plane ? planeGap : sphereGap;
-    const Real nx = plane ? planeNormal[k3] : away ? ox / distance : Real(0);
-    const Real ny = plane ? planeNormal[k3 + 1] : away ? oy / distance : Real(1);
-    const Real nz = plane ? planeNormal[k3 + 2] : away ? oz / distance : Real(0);
-    contactNormal[3 * c] = nx;
-    contactNormal[3 * c + 1] = ny;
-    contactNormal[3 * c + 2] = nz;
-    depth[c] = -gap;
-    // The push out: C = gap ≥ 0 against an immovable collider, Δλ = −C.
-    const bool inside = gap < 0;
-    px = inside ? px - gap * nx : px;
-    py = inside ? py - gap * ny : py;
-    pz = inside ? pz - gap * nz : pz;
-    const Real pushed = inside ? lambda[c] - gap : lambda[c];
-    lambda[c] = pushed;
-    // Friction over the substep, where there was a normal impulse: the tangential motion had
-    // friction not acted (what it removed so far, F, added back), bounded by μ λ (Coulomb).
-    const Real mx = px - x[i], my = py - x[i + 1], mz = pz - x[i + 2];
-    const Real along = sumOfThree(nx * mx, ny * my, nz * mz);
-    const Real fx = friction[3 * c], fy = friction[3 * c + 1], fz = friction[3 * c + 2];
-    const Real ux = (mx - nx * along) + fx, uy = (my - ny * along) + fy,
-               uz = (mz - nz * along) + fz;
-    const Real length = std::sqrt(sumOfThree(ux * ux, uy * uy, uz * uz));
-    const bool slides = length > sticking[k] * pushed;
-    const Real bound = kinetic[k] * pushed / length;
-    const Real scale = bound < Real(1) ? bound : Real(1);  // std::min(1, bound)
-    const Real rx = slides ? ux * scale : ux, ry = slides ? uy * scale : uy,
-               rz = slides ? uz * scale : uz;
-    Real cx = rx - fx, cy = ry - fy, cz = rz - fz;
-    const Real across = sumOfThree(nx * cx, ny * cy, nz * cz);
-    cx = cx - nx * across;
-    cy = cy - ny * across;
-    cz = cz - nz * across;
-    const bool rubs = !(pushed <= 0);
-    moved[3 * c] = rubs ? px - cx : px;
-    moved[3 * c + 1] = rubs ? py - cy : py;
-    moved[3 * c + 2] = rubs ? pz - cz : pz;
-    friction[3 * c] = rubs ? fx + cx : fx;
-    friction[3 * c + 1] = rubs ? fy + cy : fy;
-    friction[3 * c + 2] = rubs ? fz + cz : fz;
+  for (std::size_t first = begin; first < end;) {
+    const std::size_t last = sameColliderEnd(contacts, first, end);
+    const Collider collider = colliderOf(colliders, contacts.collider[first]);
+    if (collider.radius == 0)
+      projectOnOne<true>(contacts, collider, particles, first, last);
+    else
+      projectOnOne<false>(contacts, collider, particles, first, last);
+    first = last;
   }
   // The positions go back by particle (a scatter, which the lanes above cannot do).
+  const Index* particleOf = contacts.particle.data();
   for (std::size_t c = begin; c < end; ++c) particles.p[particleOf[c]] = contacts.moved[c];
 }
 

@@ -16,18 +16,27 @@ constexpr std::size_t kGrain = 4096;
 
 void applyForces(ParticlePool& particles, const Vec3& gravity, Real h) {
   const Vec3 dv = h * gravity;
+  const Real* w = particles.w.data();
+  Real* v = particles.v.data()->data();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles.size(), kGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i)
-                        if (particles.w[i] > 0) particles.v[i] += dv;
+                      // A select, not a sum with zero: a pinned particle's −0 stays −0.
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        const bool free = w[i] > 0;
+                        for (int c = 0; c < 3; ++c)
+                          v[3 * i + c] = free ? v[3 * i + c] + dv[c] : v[3 * i + c];
+                      }
                     });
 }
 
 void predictPositions(ParticlePool& particles, Real h) {
+  const Real* x = particles.x.data()->data();
+  const Real* v = particles.v.data()->data();
+  Real* p = particles.p.data()->data();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles.size(), kGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i)
-                        particles.p[i] = particles.x[i] + h * particles.v[i];
+                      for (std::size_t j = 3 * r.begin(); j != 3 * r.end(); ++j)
+                        p[j] = x[j] + h * v[j];
                     });
 }
 
