@@ -45,6 +45,8 @@ struct ContactPool {
   // Scratch of the detection in lanes: per particle, bit k set where it gets a contact with
   // collider k.
   std::vector<Index> reachedColliders;
+  // Build scratch: where each block of particles' runs start (the detection's sum over blocks).
+  std::vector<Index> blockStart;
 
   std::size_t size() const { return particle.size(); }
   // Sizes every column to n. Within the reserved capacity this never allocates.

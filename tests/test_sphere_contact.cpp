@@ -268,8 +268,9 @@ TEST(SphereContact, LanesGiveTheScalarProjectionsBits) {
 
 // Detection and the missed-contact repair in lanes (collider_contact_lanes.h) against their
 // scalar code, which runs where a pool does not fit the lanes: a sphere of radius 0 far from every
-// particle (no contact with it) sends the same pool to the scalar code. 4,000 particles around a
-// sphere and two planes, some pinned, some looked for farther; with and without a second end
+// particle (no contact with it) sends the same pool to the scalar code. 9,000 particles (three of
+// the detection's blocks) around a sphere and two planes, some pinned, some looked for farther;
+// with and without a second end
 // (`reached`). The pools are equal contact for contact (particle, collider, normal, depth, bit for
 // bit), and so are the repairs of particles moved into the colliders without a contact.
 TEST(SphereContact, DetectionInLanesGivesTheScalarPool) {
@@ -284,7 +285,7 @@ TEST(SphereContact, DetectionInLanesGivesTheScalarPool) {
   scalarColliders.append(ColliderShape::Sphere, Vec3(100, 100, 100), Vec3::Zero(), 0, Real(0.01),
                          Real(0.5), Real(0.5));
   std::mt19937 random(17);
-  const std::size_t n = 4000;
+  const std::size_t n = 9000;
   ParticlePool particles = fallingCloud(n, random, 0.5, 0.6, true);
   for (std::size_t i = 0; i < n; i += 40) particles.w[i] = 0;
   particles.x[1] = Vec3(0, Real(0.5), 0);  // at the sphere's centre: the normal (0, 1, 0)

@@ -9,7 +9,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
-#include <tbb/parallel_scan.h>
 
 #include "systems/collision/collider_contact_lanes.h"
 
@@ -168,78 +167,90 @@ void detectContacts(ContactPool& contacts, const ColliderPool& colliders,
     contacts.resize(0);
     return;
   }
-  // Pass 1: contacts per particle. Same prediction as predictPositions, bit for bit. Planes and
-  // spheres are counted in lanes, which give the scalar predicate's counts.
+  // In blocks of particles, two passes over each: its counts and their prefix sum within the block,
+  // then (after the sum over the blocks) its runs. Integer sums: the same offsets for any
+  // partitioning, and the pool in particle order.
   const bool lanes = fitsLanes(colliders);
   if (lanes) contacts.reachedColliders.resize(n);
   const Real* extraReach = contacts.extraReach.empty() ? nullptr : contacts.extraReach.data();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kParticleGrain),
+  const std::size_t blocks = (n + kParticleGrain - 1) / kParticleGrain;
+  contacts.blockStart.resize(blocks + 1);
+  Index* blockStart = contacts.blockStart.data();
+  Index* runStart = contacts.runStart.data();
+  const auto firstOf = [](std::size_t b) { return b * kParticleGrain; };
+  const auto endOf = [n](std::size_t b) { return std::min(n, (b + 1) * kParticleGrain); };
+  // Pass 1: contacts per particle. Same prediction as predictPositions, bit for bit. Planes and
+  // spheres are counted in lanes, which give the scalar predicate's counts.
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      if (lanes) {
-                        countCollidersInReach(colliders, particles, h, kContactReach, extraReach,
-                                              reached.empty() ? nullptr : reached.data(), r.begin(),
-                                              r.end(), contacts.runStart.data(),
-                                              contacts.reachedColliders.data());
-                        return;
-                      }
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        Index count = 0;
-                        if (particles.w[i] != 0) {
-                          const Vec3 predicted = particles.x[i] + h * particles.v[i];
-                          for (std::size_t k = 0; k < colliders.size(); ++k)
-                            count += touches(i, k, predicted);
+                      for (std::size_t b = r.begin(); b != r.end(); ++b) {
+                        const std::size_t first = firstOf(b), end = endOf(b);
+                        if (lanes) {
+                          countCollidersInReach(colliders, particles, h, kContactReach, extraReach,
+                                                reached.empty() ? nullptr : reached.data(), first,
+                                                end, runStart, contacts.reachedColliders.data());
+                        } else {
+                          for (std::size_t i = first; i != end; ++i) {
+                            Index count = 0;
+                            if (particles.w[i] != 0) {
+                              const Vec3 predicted = particles.x[i] + h * particles.v[i];
+                              for (std::size_t k = 0; k < colliders.size(); ++k)
+                                count += touches(i, k, predicted);
+                            }
+                            runStart[i] = count;
+                          }
                         }
-                        contacts.runStart[i] = count;
+                        Index sum = 0;
+                        for (std::size_t i = first; i != end; ++i) {
+                          const Index count = runStart[i];
+                          runStart[i] = sum;
+                          sum += count;
+                        }
+                        blockStart[b + 1] = sum;
                       }
                     });
-  // Exclusive scan: where each particle's run starts, so that the pool is in particle order.
-  // Integer sums: the parallel scan gives the same offsets for any partitioning.
-  const Index total = tbb::parallel_scan(
-      tbb::blocked_range<std::size_t>(0, n, kParticleGrain), Index(0),
-      [&](const tbb::blocked_range<std::size_t>& r, Index sum, bool final) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          const Index count = contacts.runStart[i];
-          if (final) contacts.runStart[i] = sum;
-          sum += count;
-        }
-        return sum;
-      },
-      std::plus<>());
-  contacts.runStart[n] = total;
+  blockStart[0] = 0;
+  for (std::size_t b = 0; b < blocks; ++b) blockStart[b + 1] += blockStart[b];
+  const Index total = blockStart[blocks];
+  runStart[n] = total;
   contacts.resize(total);
-  // Pass 2: fill the runs.
+  // Pass 2: the block's runs where the blocks before it end, then their contacts.
   tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, n, kParticleGrain),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        if (lanes) {
-          // The runs from the colliders marked, then their surfaces in lanes.
-          for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            Index c = contacts.runStart[i];
-            for (Index bits = contacts.reachedColliders[i]; bits != 0; bits &= bits - 1, ++c) {
+      tbb::blocked_range<std::size_t>(0, blocks), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t b = r.begin(); b != r.end(); ++b) {
+          const std::size_t first = firstOf(b), end = endOf(b);
+          for (std::size_t i = first; i != end; ++i) runStart[i] += blockStart[b];
+          if (lanes) {
+            // The runs from the colliders marked, then their surfaces in lanes.
+            for (std::size_t i = first; i != end; ++i) {
+              Index c = runStart[i];
+              for (Index bits = contacts.reachedColliders[i]; bits != 0; bits &= bits - 1, ++c) {
+                contacts.particle[c] = static_cast<Index>(i);
+                contacts.collider[c] = static_cast<Index>(std::countr_zero(bits));
+                contacts.lambda[c] = 0;
+                contacts.friction[c] = Vec3::Zero();
+              }
+            }
+            setPredictedSurfaces(contacts, colliders, particles, h, blockStart[b],
+                                 blockStart[b + 1]);
+            continue;
+          }
+          for (std::size_t i = first; i != end; ++i) {
+            Index c = runStart[i];
+            // The next block's first run starts where this block ends.
+            if (c == (i + 1 == end ? blockStart[b + 1] : runStart[i + 1])) continue;
+            const Vec3 predicted = particles.x[i] + h * particles.v[i];
+            for (std::size_t k = 0; k < colliders.size(); ++k) {
+              if (!touches(i, k, predicted)) continue;
+              const SurfacePoint surface = surfaceAt(colliders, k, predicted);
               contacts.particle[c] = static_cast<Index>(i);
-              contacts.collider[c] = static_cast<Index>(std::countr_zero(bits));
+              contacts.collider[c] = static_cast<Index>(k);
+              contacts.normal[c] = surface.normal;
+              contacts.depth[c] = -surface.gap;
               contacts.lambda[c] = 0;
               contacts.friction[c] = Vec3::Zero();
+              ++c;
             }
-          }
-          setPredictedSurfaces(contacts, colliders, particles, h, contacts.runStart[r.begin()],
-                               contacts.runStart[r.end()]);
-          return;
-        }
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          Index c = contacts.runStart[i];
-          if (c == contacts.runStart[i + 1]) continue;
-          const Vec3 predicted = particles.x[i] + h * particles.v[i];
-          for (std::size_t k = 0; k < colliders.size(); ++k) {
-            if (!touches(i, k, predicted)) continue;
-            const SurfacePoint s = surfaceAt(colliders, k, predicted);
-            contacts.particle[c] = static_cast<Index>(i);
-            contacts.collider[c] = static_cast<Index>(k);
-            contacts.normal[c] = s.normal;
-            contacts.depth[c] = -s.gap;
-            contacts.lambda[c] = 0;
-            contacts.friction[c] = Vec3::Zero();
-            ++c;
           }
         }
       });
