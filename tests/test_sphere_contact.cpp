@@ -127,6 +127,19 @@ ParticlePool fallingCloud(std::size_t n, std::mt19937& random, double height, do
   return particles;
 }
 
+// A floor, a slanted wall and a sphere resting on the floor, each with its own friction: particles
+// near the corner and the sphere's foot get two contacts.
+ColliderPool floorWallAndSphere() {
+  ColliderPool colliders;
+  colliders.append(ColliderShape::Plane, Vec3::Zero(), Vec3(0, 1, 0), 0, Real(0.01), Real(0.3),
+                   Real(0.5));
+  colliders.append(ColliderShape::Plane, Vec3(Real(0.6), 0, 0), Vec3(-1, 1, 0).normalized(), 0,
+                   Real(0.01), Real(0.8), Real(0.9));
+  colliders.append(ColliderShape::Sphere, Vec3(0, Real(0.5), 0), Vec3::Zero(), Real(0.5),
+                   Real(0.01), Real(0.5), Real(0.6));
+  return colliders;
+}
+
 // The in-place re-detection against the full one: 3,000 particles around a sphere and a plane,
 // falling at random speeds, the pool detected over their predicted motion, then every free one
 // carried somewhere at random (some into reach, some not). Where the full re-detection gives a
@@ -206,13 +219,7 @@ TEST(SphereContact, InPlaceRedetectionMatchesTheFullOne) {
 // random motions, five rounds (the later ones with multipliers and friction to bound), at 1 and
 // 2 threads. Then p, λ, F, normals and depths are compared bit for bit.
 TEST(SphereContact, LanesGiveTheScalarProjectionsBits) {
-  ColliderPool colliders;
-  colliders.append(ColliderShape::Plane, Vec3::Zero(), Vec3(0, 1, 0), 0, Real(0.01), Real(0.3),
-                   Real(0.5));
-  colliders.append(ColliderShape::Plane, Vec3(Real(0.6), 0, 0), Vec3(-1, 1, 0).normalized(), 0,
-                   Real(0.01), Real(0.8), Real(0.9));
-  colliders.append(ColliderShape::Sphere, Vec3(0, Real(0.5), 0), Vec3::Zero(), Real(0.5),
-                   Real(0.01), Real(0.5), Real(0.6));
+  ColliderPool colliders = floorWallAndSphere();
   std::mt19937 random(9);
   const std::size_t n = 4000;
   ParticlePool particles = fallingCloud(n, random, 0.5, 0.6, true);
@@ -270,17 +277,11 @@ TEST(SphereContact, LanesGiveTheScalarProjectionsBits) {
 // scalar code, which runs where a pool does not fit the lanes: a sphere of radius 0 far from every
 // particle (no contact with it) sends the same pool to the scalar code. 9,000 particles (three of
 // the detection's blocks) around a sphere and two planes, some pinned, some looked for farther;
-// with and without a second end
-// (`reached`). The pools are equal contact for contact (particle, collider, normal, depth, bit for
-// bit), and so are the repairs of particles moved into the colliders without a contact.
+// with and without a second end (`reached`). The pools are equal contact for contact (particle,
+// collider, normal, depth, bit for bit), and so are the repairs of particles moved into the
+// colliders without a contact.
 TEST(SphereContact, DetectionInLanesGivesTheScalarPool) {
-  ColliderPool colliders;
-  colliders.append(ColliderShape::Plane, Vec3::Zero(), Vec3(0, 1, 0), 0, Real(0.01), Real(0.3),
-                   Real(0.5));
-  colliders.append(ColliderShape::Plane, Vec3(Real(0.6), 0, 0), Vec3(-1, 1, 0).normalized(), 0,
-                   Real(0.01), Real(0.8), Real(0.9));
-  colliders.append(ColliderShape::Sphere, Vec3(0, Real(0.5), 0), Vec3::Zero(), Real(0.5),
-                   Real(0.01), Real(0.5), Real(0.6));
+  ColliderPool colliders = floorWallAndSphere();
   ColliderPool scalarColliders = colliders;
   scalarColliders.append(ColliderShape::Sphere, Vec3(100, 100, 100), Vec3::Zero(), 0, Real(0.01),
                          Real(0.5), Real(0.5));

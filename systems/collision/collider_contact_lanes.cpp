@@ -18,74 +18,9 @@ namespace {
   return std::is_same_v<Real, float> ? x + (y + z) : (x + y) + z;
 }
 
-// surfaceAt's signed gap of y to a collider's contact surface: the plane's n · (y − point) −
-// thickness, or the sphere's |y − centre| − radius − thickness.
-template <bool Plane>
-[[gnu::always_inline]] inline Real gapTo(const Real* point, const Real* normal, Real radius,
-                                         Real thickness, Real yx, Real yy, Real yz) {
-  const Real ox = yx - point[0], oy = yy - point[1], oz = yz - point[2];
-  if constexpr (Plane)
-    return sumOfThree(normal[0] * ox, normal[1] * oy, normal[2] * oz) - thickness;
-  return std::sqrt(sumOfThree(ox * ox, oy * oy, oz * oz)) - radius - thickness;
-}
-
-// inReach of particle_contacts.cpp for a motion from x to e whose start's gap is known:
-// min(gap(x), gap(e)) < |e − x| + reach + extra, with std::min's choice.
-template <bool Plane>
-[[gnu::always_inline]] inline bool reaches(const Real* point, const Real* normal, Real radius,
-                                           Real thickness, Real contactReach, Real extra,
-                                           const Real* x, Real startGap, Real ex, Real ey,
-                                           Real ez) {
-  const Real mx = ex - x[0], my = ey - x[1], mz = ez - x[2];
-  const Real reach = std::sqrt(sumOfThree(mx * mx, my * my, mz * mz)) + contactReach + extra;
-  const Real endGap = gapTo<Plane>(point, normal, radius, thickness, ex, ey, ez);
-  return (endGap < startGap ? endGap : startGap) < reach;
-}
-
-// countCollidersInReach's loop for one collider, with or without a second end to reach and an
-// extra reach per particle (a choice made outside the loop: a load under a mask costs more than
-// the rest of the lane on some machines).
-// Inlined into each instruction set's build of its caller.
-template <bool Plane, bool Reached, bool Extra>
-[[gnu::always_inline]] inline void addCollidersInReach(
-    const Real* point, const Real* normal, Real radius, Real thickness, const Real* x,
-    const Real* v, const Real* w, const Real* to, Real h, Real contactReach, const Real* extraReach,
-    std::size_t begin, std::size_t end, Index bit, Index* count, Index* colliderBits) {
-#pragma omp simd
-  for (std::size_t i = begin; i < end; ++i) {
-    const Real* xi = x + 3 * i;
-    const Real extra = Extra ? extraReach[i] : Real(0);
-    const Real startGap = gapTo<Plane>(point, normal, radius, thickness, xi[0], xi[1], xi[2]);
-    const Real* vi = v + 3 * i;
-    bool touches =
-        reaches<Plane>(point, normal, radius, thickness, contactReach, extra, xi, startGap,
-                       xi[0] + h * vi[0], xi[1] + h * vi[1], xi[2] + h * vi[2]);
-    if constexpr (Reached) {
-      const Real* ti = to + 3 * i;
-      touches = touches | reaches<Plane>(point, normal, radius, thickness, contactReach, extra, xi,
-                                         startGap, ti[0], ti[1], ti[2]);
-    }
-    const bool counted = (w[i] != 0) & touches;
-    count[i] += counted ? Index(1) : Index(0);
-    colliderBits[i] |= counted ? bit : Index(0);
-  }
-}
-
-// markInsideColliders' loop for one collider.
-template <bool Plane>
-[[gnu::always_inline]] inline void markInside(const Real* point, const Real* normal, Real radius,
-                                              Real thickness, const Real* p, std::size_t begin,
-                                              std::size_t end, std::uint8_t* inside) {
-#pragma omp simd
-  for (std::size_t i = begin; i < end; ++i) {
-    const Real* y = p + 3 * i;
-    const Real gap = gapTo<Plane>(point, normal, radius, thickness, y[0], y[1], y[2]);
-    inside[i - begin] |= gap < 0 ? std::uint8_t(1) : std::uint8_t(0);
-  }
-}
-
-// One collider's constants, read once for a stretch of its contacts (rather than gathered lane by
-// lane: most pools hold long stretches of one collider).
+// One collider's constants, read once for a loop or a stretch of its contacts (rather than
+// gathered lane by lane: most pools hold long stretches of one collider). A plane's radius is 0,
+// a sphere's positive (ColliderPool).
 struct Collider {
   const Real* point;
   const Real* normal;
@@ -106,18 +41,113 @@ inline std::size_t sameColliderEnd(const ContactPool& contacts, std::size_t firs
   return last;
 }
 
-// surfaceAt's outward normal at y, given y − point and, for a sphere, |y − point|: the plane's
-// normal, or the direction from the centre ((0, 1, 0) at the centre itself).
+// surfaceAt of particle_contacts.cpp at y, operation for operation: the signed gap to the contact
+// surface (the plane's n · (y − point) − thickness, or the sphere's |y − centre| − radius −
+// thickness) and the outward normal (the plane's, or the direction from the centre, (0, 1, 0) at
+// the centre itself). Where only the gap is used, the compiler drops the normal's divisions.
+struct Surface {
+  Real gap, nx, ny, nz;
+};
+
 template <bool Plane>
-[[gnu::always_inline]] inline void normalAt(const Collider& collider, Real ox, Real oy, Real oz,
-                                            Real distance, Real& nx, Real& ny, Real& nz) {
-  if constexpr (Plane) {
-    nx = collider.normal[0], ny = collider.normal[1], nz = collider.normal[2];
-  } else {
-    const bool away = distance > Real(1e-12);
-    nx = away ? ox / distance : Real(0);
-    ny = away ? oy / distance : Real(1);
-    nz = away ? oz / distance : Real(0);
+[[gnu::always_inline]] inline Surface surfaceOf(const Collider& collider, Real yx, Real yy,
+                                                Real yz) {
+  const Real ox = yx - collider.point[0], oy = yy - collider.point[1], oz = yz - collider.point[2];
+  const Real* n = collider.normal;
+  if constexpr (Plane)
+    return {sumOfThree(n[0] * ox, n[1] * oy, n[2] * oz) - collider.thickness, n[0], n[1], n[2]};
+  const Real distance = std::sqrt(sumOfThree(ox * ox, oy * oy, oz * oz));
+  const bool away = distance > Real(1e-12);
+  return {distance - collider.radius - collider.thickness, away ? ox / distance : Real(0),
+          away ? oy / distance : Real(1), away ? oz / distance : Real(0)};
+}
+
+// inReach of particle_contacts.cpp for a motion from x to e whose start's gap is known:
+// min(gap(x), gap(e)) < |e − x| + reach + extra, with std::min's choice.
+template <bool Plane>
+[[gnu::always_inline]] inline bool reaches(const Collider& collider, Real contactReach, Real extra,
+                                           const Real* x, Real startGap, Real ex, Real ey,
+                                           Real ez) {
+  const Real mx = ex - x[0], my = ey - x[1], mz = ez - x[2];
+  const Real reach = std::sqrt(sumOfThree(mx * mx, my * my, mz * mz)) + contactReach + extra;
+  const Real endGap = surfaceOf<Plane>(collider, ex, ey, ez).gap;
+  return (endGap < startGap ? endGap : startGap) < reach;
+}
+
+// What countCollidersInReach reads and writes, for its loops.
+struct ReachLanes {
+  const Real* x;
+  const Real* v;
+  const Real* w;
+  const Real* to;          // the second ends, or null
+  const Real* extraReach;  // or null
+  Real h, contactReach;
+  Index* count;
+  Index* colliderBits;
+};
+
+// countCollidersInReach's loop for one collider, with or without a second end to reach and an
+// extra reach per particle: choices made outside the loop (a load under a mask cost more than the
+// rest of the lane). These templates are inlined into each instruction set's build of their caller
+// (a lambda there was compiled apart, for the baseline set).
+template <bool Plane, bool Reached, bool Extra>
+[[gnu::always_inline]] inline void addCollidersInReach(const Collider& collider,
+                                                       const ReachLanes& lanes, Index bit,
+                                                       std::size_t begin, std::size_t end) {
+  const Real *x = lanes.x, *v = lanes.v, *w = lanes.w, *to = lanes.to;
+  const Real* extraReach = lanes.extraReach;
+  const Real h = lanes.h, contactReach = lanes.contactReach;
+  Index* count = lanes.count;
+  Index* colliderBits = lanes.colliderBits;
+#pragma omp simd
+  for (std::size_t i = begin; i < end; ++i) {
+    const Real* xi = x + 3 * i;
+    const Real* vi = v + 3 * i;
+    const Real extra = Extra ? extraReach[i] : Real(0);
+    const Real startGap = surfaceOf<Plane>(collider, xi[0], xi[1], xi[2]).gap;
+    bool touches = reaches<Plane>(collider, contactReach, extra, xi, startGap, xi[0] + h * vi[0],
+                                  xi[1] + h * vi[1], xi[2] + h * vi[2]);
+    if constexpr (Reached) {
+      const Real* ti = to + 3 * i;
+      touches = touches |
+                reaches<Plane>(collider, contactReach, extra, xi, startGap, ti[0], ti[1], ti[2]);
+    }
+    const bool counted = (w[i] != 0) & touches;
+    count[i] += counted ? Index(1) : Index(0);
+    colliderBits[i] |= counted ? bit : Index(0);
+  }
+}
+
+template <bool Plane, bool Reached>
+[[gnu::always_inline]] inline void addCollidersInReach(const Collider& collider,
+                                                       const ReachLanes& lanes, Index bit,
+                                                       std::size_t begin, std::size_t end) {
+  if (lanes.extraReach)
+    addCollidersInReach<Plane, Reached, true>(collider, lanes, bit, begin, end);
+  else
+    addCollidersInReach<Plane, Reached, false>(collider, lanes, bit, begin, end);
+}
+
+template <bool Plane>
+[[gnu::always_inline]] inline void addCollidersInReach(const Collider& collider,
+                                                       const ReachLanes& lanes, Index bit,
+                                                       std::size_t begin, std::size_t end) {
+  if (lanes.to)
+    addCollidersInReach<Plane, true>(collider, lanes, bit, begin, end);
+  else
+    addCollidersInReach<Plane, false>(collider, lanes, bit, begin, end);
+}
+
+// markInsideColliders' loop for one collider.
+template <bool Plane>
+[[gnu::always_inline]] inline void markInside(const Collider& collider, const Real* p,
+                                              std::size_t begin, std::size_t end,
+                                              std::uint8_t* inside) {
+#pragma omp simd
+  for (std::size_t i = begin; i < end; ++i) {
+    const Real* y = p + 3 * i;
+    inside[i - begin] |=
+        surfaceOf<Plane>(collider, y[0], y[1], y[2]).gap < 0 ? std::uint8_t(1) : std::uint8_t(0);
   }
 }
 
@@ -134,18 +164,13 @@ template <bool Plane>
 #pragma omp simd
   for (std::size_t c = first; c < last; ++c) {
     const Index i = 3 * particleOf[c];  // far below 2³² / 3
-    // The prediction as predictPositions makes it, then surfaceAt.
-    const Real yx = x[i] + h * v[i], yy = x[i + 1] + h * v[i + 1], yz = x[i + 2] + h * v[i + 2];
-    const Real ox = yx - collider.point[0], oy = yy - collider.point[1],
-               oz = yz - collider.point[2];
-    const Real distance = Plane ? Real(0) : std::sqrt(sumOfThree(ox * ox, oy * oy, oz * oz));
-    Real nx, ny, nz;
-    normalAt<Plane>(collider, ox, oy, oz, distance, nx, ny, nz);
-    contactNormal[3 * c] = nx;
-    contactNormal[3 * c + 1] = ny;
-    contactNormal[3 * c + 2] = nz;
-    depth[c] = -gapTo<Plane>(collider.point, collider.normal, collider.radius, collider.thickness,
-                             yx, yy, yz);
+    // The prediction as predictPositions makes it.
+    const Surface s = surfaceOf<Plane>(collider, x[i] + h * v[i], x[i + 1] + h * v[i + 1],
+                                       x[i + 2] + h * v[i + 2]);
+    contactNormal[3 * c] = s.nx;
+    contactNormal[3 * c + 1] = s.ny;
+    contactNormal[3 * c + 2] = s.nz;
+    depth[c] = -s.gap;
   }
 }
 
@@ -167,16 +192,8 @@ template <bool Plane>
   for (std::size_t c = first; c < last; ++c) {
     const Index i = 3 * particleOf[c];  // far below 2³² / 3
     Real px = p[i], py = p[i + 1], pz = p[i + 2];
-    // surfaceAt: a plane's signed distance, or a sphere's distance from its centre.
-    const Real ox = px - collider.point[0], oy = py - collider.point[1],
-               oz = pz - collider.point[2];
-    const Real distance = Plane ? Real(0) : std::sqrt(sumOfThree(ox * ox, oy * oy, oz * oz));
-    const Real gap = Plane ? sumOfThree(collider.normal[0] * ox, collider.normal[1] * oy,
-                                        collider.normal[2] * oz) -
-                                 collider.thickness
-                           : distance - collider.radius - collider.thickness;
-    Real nx, ny, nz;
-    normalAt<Plane>(collider, ox, oy, oz, distance, nx, ny, nz);
+    const Surface s = surfaceOf<Plane>(collider, px, py, pz);
+    const Real gap = s.gap, nx = s.nx, ny = s.ny, nz = s.nz;
     contactNormal[3 * c] = nx;
     contactNormal[3 * c + 1] = ny;
     contactNormal[3 * c + 2] = nz;
@@ -225,50 +242,23 @@ void countCollidersInReach(const ColliderPool& colliders, const ParticlePool& pa
                            Real contactReach, const Real* extraReach, const Vec3* reached,
                            std::size_t begin, std::size_t end, Index* count,
                            Index* colliderBits) {
-  const Real* x = particles.x.data()->data();
-  const Real* v = particles.v.data()->data();
-  const Real* w = particles.w.data();
-  const Real* to = reached ? reached->data() : nullptr;
+  const ReachLanes lanes{particles.x.data()->data(),
+                         particles.v.data()->data(),
+                         particles.w.data(),
+                         reached ? reached->data() : nullptr,
+                         extraReach,
+                         h,
+                         contactReach,
+                         count,
+                         colliderBits};
   for (std::size_t i = begin; i < end; ++i) count[i] = colliderBits[i] = 0;
   for (std::size_t k = 0; k < colliders.size(); ++k) {
-    const Real* point = colliders.point[k].data();
-    const Real* normal = colliders.normal[k].data();
-    const Real radius = colliders.radius[k], thickness = colliders.thickness[k];
+    const Collider collider = colliderOf(colliders, static_cast<Index>(k));
     const Index bit = Index(1) << k;
-    // Every choice is a template argument, spelt out here: a lambda would be compiled apart,
-    // for the baseline instruction set, outside this function's builds.
-#define NUCLEON_ADD_COLLIDER(PLANE, REACHED, EXTRA)                                            \
-  addCollidersInReach<PLANE, REACHED, EXTRA>(point, normal, radius, thickness, x, v, w, to, h, \
-                                             contactReach, extraReach, begin, end, bit, count, \
-                                             colliderBits)
-    const int variant = (radius == 0) * 4 + (to != nullptr) * 2 + (extraReach != nullptr);
-    switch (variant) {
-      case 0:
-        NUCLEON_ADD_COLLIDER(false, false, false);
-        break;
-      case 1:
-        NUCLEON_ADD_COLLIDER(false, false, true);
-        break;
-      case 2:
-        NUCLEON_ADD_COLLIDER(false, true, false);
-        break;
-      case 3:
-        NUCLEON_ADD_COLLIDER(false, true, true);
-        break;
-      case 4:
-        NUCLEON_ADD_COLLIDER(true, false, false);
-        break;
-      case 5:
-        NUCLEON_ADD_COLLIDER(true, false, true);
-        break;
-      case 6:
-        NUCLEON_ADD_COLLIDER(true, true, false);
-        break;
-      default:
-        NUCLEON_ADD_COLLIDER(true, true, true);
-        break;
-    }
-#undef NUCLEON_ADD_COLLIDER
+    if (collider.radius == 0)
+      addCollidersInReach<true>(collider, lanes, bit, begin, end);
+    else
+      addCollidersInReach<false>(collider, lanes, bit, begin, end);
   }
 }
 
@@ -297,13 +287,11 @@ void markInsideColliders(const ColliderPool& colliders, const ParticlePool& part
   const Real* p = particles.p.data()->data();
   for (std::size_t i = begin; i < end; ++i) inside[i - begin] = 0;
   for (std::size_t k = 0; k < colliders.size(); ++k) {
-    const Real* point = colliders.point[k].data();
-    const Real* normal = colliders.normal[k].data();
-    const Real radius = colliders.radius[k], thickness = colliders.thickness[k];
-    if (radius == 0)
-      markInside<true>(point, normal, radius, thickness, p, begin, end, inside);
+    const Collider collider = colliderOf(colliders, static_cast<Index>(k));
+    if (collider.radius == 0)
+      markInside<true>(collider, p, begin, end, inside);
     else
-      markInside<false>(point, normal, radius, thickness, p, begin, end, inside);
+      markInside<false>(collider, p, begin, end, inside);
   }
 }
 
