@@ -279,7 +279,7 @@ TEST(SphereContact, LanesGiveTheScalarProjectionsBits) {
 // the detection's blocks) around a sphere and two planes, some pinned, some looked for farther;
 // with and without a second end (`reached`). The pools are equal contact for contact (particle,
 // collider, normal, depth, bit for bit), and so are the repairs of particles moved into the
-// colliders without a contact.
+// colliders without a contact and the contacts the cascade's re-detection adds.
 TEST(SphereContact, DetectionInLanesGivesTheScalarPool) {
   ColliderPool colliders = floorWallAndSphere();
   ColliderPool scalarColliders = colliders;
@@ -343,6 +343,24 @@ TEST(SphereContact, DetectionInLanesGivesTheScalarPool) {
       EXPECT_EQ(repairedByLanes, repairedByScalar);
       EXPECT_GT(repairedByLanes, 50u);
       for (std::size_t i = 0; i < n; ++i) ASSERT_TRUE(laneMoved.p[i] == scalarMoved.p[i]) << i;
+      // The cascade's re-detection (addReachedContacts): a third of the particles carried up to
+      // 30 cm from their predictions; the same contacts added to both pools.
+      ParticlePool carried = particles;
+      for (std::size_t i = 0; i < n; ++i) {
+        carried.p[i] = particles.x[i] + h * particles.v[i];
+        if (i % 3 == 0)
+          carried.p[i] +=
+              Real(0.3) * Vec3(Real(unit(random)), Real(unit(random)), Real(unit(random)));
+      }
+      const std::size_t addedByLanes = addReachedContacts(lanes, colliders, carried, h);
+      EXPECT_EQ(addedByLanes, addReachedContacts(scalar, scalarColliders, carried, h));
+      EXPECT_GT(addedByLanes, 50u);
+      EXPECT_TRUE(lanes.runStart == scalar.runStart);
+      for (std::size_t c = 0; c < lanes.size(); ++c) {
+        ASSERT_EQ(lanes.particle[c], scalar.particle[c]) << c;
+        ASSERT_EQ(lanes.collider[c], scalar.collider[c]) << c;
+        ASSERT_TRUE(lanes.normal[c] == scalar.normal[c]) << c;
+      }
     }
   }
 }

@@ -138,6 +138,43 @@ template <bool Plane>
     addCollidersInReach<Plane, false>(collider, lanes, bit, begin, end);
 }
 
+// countMissingContacts' loop for one collider: countCollidersInReach's with reached = p, for the
+// particles without a contact only, and the missing test (the motion x → p within reach without
+// the extra reach) beside it, from the same gap and length.
+template <bool Plane, bool Extra>
+[[gnu::always_inline]] inline void addMissingInReach(const Collider& collider,
+                                                     const ReachLanes& lanes, const Index* runStart,
+                                                     Index bit, std::size_t begin, std::size_t end,
+                                                     int& missing) {
+  const Real *x = lanes.x, *v = lanes.v, *w = lanes.w, *p = lanes.to;
+  const Real* extraReach = lanes.extraReach;
+  const Real h = lanes.h, contactReach = lanes.contactReach;
+  Index* count = lanes.count;
+  Index* colliderBits = lanes.colliderBits;
+  int anyMissing = 0;
+#pragma omp simd reduction(| : anyMissing)
+  for (std::size_t i = begin; i < end; ++i) {
+    const Real* xi = x + 3 * i;
+    const Real* vi = v + 3 * i;
+    const Real* pi = p + 3 * i;
+    const Real extra = Extra ? extraReach[i] : Real(0);
+    const Real startGap = surfaceOf<Plane>(collider, xi[0], xi[1], xi[2]).gap;
+    const bool predicted = reaches<Plane>(collider, contactReach, extra, xi, startGap,
+                                          xi[0] + h * vi[0], xi[1] + h * vi[1], xi[2] + h * vi[2]);
+    // reaches() toward p, its reach split: (length + contactReach) + extra.
+    const Real mx = pi[0] - xi[0], my = pi[1] - xi[1], mz = pi[2] - xi[2];
+    const Real withoutExtra = std::sqrt(sumOfThree(mx * mx, my * my, mz * mz)) + contactReach;
+    const Real endGap = surfaceOf<Plane>(collider, pi[0], pi[1], pi[2]).gap;
+    const Real gap = endGap < startGap ? endGap : startGap;
+    const bool eligible = (w[i] != 0) & (runStart[i] == runStart[i + 1]);
+    const bool counted = eligible & (predicted | (gap < withoutExtra + extra));
+    count[i] += counted ? Index(1) : Index(0);
+    colliderBits[i] |= counted ? bit : Index(0);
+    anyMissing |= (eligible & (gap < withoutExtra)) ? 1 : 0;
+  }
+  missing |= anyMissing;
+}
+
 // markInsideColliders' loop for one collider.
 template <bool Plane>
 [[gnu::always_inline]] inline void markInside(const Collider& collider, const Real* p,
@@ -260,6 +297,41 @@ void countCollidersInReach(const ColliderPool& colliders, const ParticlePool& pa
     else
       addCollidersInReach<false>(collider, lanes, bit, begin, end);
   }
+}
+
+#if defined(__x86_64__)
+[[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
+#endif
+bool countMissingContacts(const ColliderPool& colliders, const ParticlePool& particles, Real h,
+                          Real contactReach, const Real* extraReach, const Index* runStart,
+                          std::size_t begin, std::size_t end, Index* count, Index* colliderBits) {
+  const ReachLanes lanes{particles.x.data()->data(),
+                         particles.v.data()->data(),
+                         particles.w.data(),
+                         particles.p.data()->data(),
+                         extraReach,
+                         h,
+                         contactReach,
+                         count,
+                         colliderBits};
+  for (std::size_t i = begin; i < end; ++i) count[i] = colliderBits[i] = 0;
+  int missing = 0;
+  for (std::size_t k = 0; k < colliders.size(); ++k) {
+    const Collider collider = colliderOf(colliders, static_cast<Index>(k));
+    const Index bit = Index(1) << k;
+    if (collider.radius == 0) {
+      if (extraReach)
+        addMissingInReach<true, true>(collider, lanes, runStart, bit, begin, end, missing);
+      else
+        addMissingInReach<true, false>(collider, lanes, runStart, bit, begin, end, missing);
+    } else {
+      if (extraReach)
+        addMissingInReach<false, true>(collider, lanes, runStart, bit, begin, end, missing);
+      else
+        addMissingInReach<false, false>(collider, lanes, runStart, bit, begin, end, missing);
+    }
+  }
+  return missing != 0;
 }
 
 #if defined(__x86_64__)

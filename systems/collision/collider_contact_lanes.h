@@ -33,6 +33,15 @@ void countCollidersInReach(const ColliderPool& colliders, const ParticlePool& pa
                            Real contactReach, const Real* extraReach, const Vec3* reached,
                            std::size_t begin, std::size_t end, Index* count, Index* colliderBits);
 
+// addReachedContacts' first pass (particle_contacts.cpp) for particles [begin, end) at once: for
+// each particle with w ≠ 0 and no contact (runStart[i] == runStart[i + 1]), count[i] and
+// colliderBits[i] as countCollidersInReach gives them with reached = p; 0 for the others. Returns
+// whether one of those particles' motion x → p comes within the reach without the extra reach of
+// some collider (contactsMissing's test). The scalar predicate's bits, colliders as above.
+bool countMissingContacts(const ColliderPool& colliders, const ParticlePool& particles, Real h,
+                          Real contactReach, const Real* extraReach, const Index* runStart,
+                          std::size_t begin, std::size_t end, Index* count, Index* colliderBits);
+
 // Each contact's normal and depth (−gap) at its particle's predicted position x + h v, for
 // contacts [begin, end): what detectContacts stores with a new contact, the same bits as
 // surfaceAt. Colliders as above.

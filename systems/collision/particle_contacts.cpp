@@ -326,9 +326,21 @@ std::size_t addReachedContacts(ContactPool& contacts, const ColliderPool& collid
     bool missing = false;
     std::size_t added = 0;
   };
+  // Planes and spheres in lanes, which give the scalar predicate's counts and test.
+  const bool lanes = fitsLanes(colliders);
+  if (lanes) contacts.reachedColliders.resize(n);
+  const Real* extraReach = contacts.extraReach.empty() ? nullptr : contacts.extraReach.data();
   const Found found = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, n, kParticleGrain), Found{},
       [&](const tbb::blocked_range<std::size_t>& r, Found sum) {
+        if (lanes) {
+          sum.missing = countMissingContacts(colliders, particles, h, kContactReach, extraReach,
+                                             contacts.runStart.data(), r.begin(), r.end(), count,
+                                             contacts.reachedColliders.data()) ||
+                        sum.missing;
+          for (std::size_t i = r.begin(); i != r.end(); ++i) sum.added += count[i];
+          return sum;
+        }
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
           count[i] = 0;
           if (particles.w[i] == 0 || contacts.runStart[i] != contacts.runStart[i + 1]) continue;
