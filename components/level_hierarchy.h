@@ -69,6 +69,7 @@
 #include <span>
 #include <vector>
 
+#include "components/contact_pool.h"
 #include "nucleon/types.h"
 
 namespace nucleon {
@@ -141,6 +142,10 @@ struct CascadeScratch {
   std::vector<Vec3> supportNormal;
   std::vector<Real> supportOffset;
   std::vector<Index> onSpheres;  // one level's particles on a sphere collider
+  // Their collider contacts, copied out for the projections between the level's sweeps, and
+  // where each came from in the substep's pool (particle_contacts.h, copyContactsOf).
+  ContactPool levelContacts;
+  std::vector<Index> levelContactSource;
 };
 
 }  // namespace nucleon

@@ -273,6 +273,57 @@ TEST(SphereContact, LanesGiveTheScalarProjectionsBits) {
   for (std::size_t i = 0; i < n; ++i) ASSERT_TRUE(scalar.p[i] == lanes.p[i]) << i;
 }
 
+// A coarse level's contacts projected from a compact copy (copyContactsOf, projectCopiedContacts,
+// returnCopiedContacts) against projectContactsOf on the pool itself: every third of 4,000
+// particles around a sphere and two planes (some with two contacts), five rounds, at 1 and 2
+// threads. Positions and the pool's normals, depths, multipliers and friction, bit for bit; the
+// particles not listed are not moved.
+TEST(SphereContact, CopiedContactsGiveTheProjectionOfTheListed) {
+  ColliderPool colliders = floorWallAndSphere();
+  std::mt19937 random(23);
+  const std::size_t n = 4000;
+  ParticlePool particles = fallingCloud(n, random, 0.5, 0.6, true);
+  const Real h = Real(1) / 60;
+  ContactPool contacts;
+  detectContacts(contacts, colliders, particles, h);
+  for (std::size_t i = 0; i < n; ++i) particles.p[i] = particles.x[i] + h * particles.v[i];
+  std::vector<Index> listed;
+  for (std::size_t i = 0; i < n; i += 3) listed.push_back(static_cast<Index>(i));
+  for (const int threads : {1, 2}) {
+    ParticlePool direct = particles, copied = particles;
+    ContactPool directPool = contacts, copiedPool = contacts;
+    ContactPool copy;
+    std::vector<Index> source;
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+      copyContactsOf(copiedPool, listed, copy, source);
+      for (int round = 0; round < 5; ++round) {
+        projectContactsOf(directPool, colliders, direct, listed);
+        projectCopiedContacts(copy, colliders, copied);
+      }
+      returnCopiedContacts(copy, source, copiedPool);
+    });
+    ASSERT_GT(copy.size(), 400u);
+    std::size_t moved = 0, several = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      ASSERT_TRUE(direct.p[i] == copied.p[i]) << i;
+      if (i % 3 != 0) {
+        EXPECT_TRUE(copied.p[i] == particles.p[i]) << i;
+      }
+      moved += copied.p[i] != particles.p[i];
+      several += i % 3 == 0 && contacts.runStart[i + 1] - contacts.runStart[i] > 1;
+    }
+    EXPECT_GT(moved, 300u);
+    EXPECT_GT(several, 5u);
+    for (std::size_t c = 0; c < contacts.size(); ++c) {
+      ASSERT_EQ(directPool.lambda[c], copiedPool.lambda[c]) << c;
+      ASSERT_TRUE(directPool.friction[c] == copiedPool.friction[c]) << c;
+      ASSERT_TRUE(directPool.normal[c] == copiedPool.normal[c]) << c;
+      ASSERT_EQ(directPool.depth[c], copiedPool.depth[c]) << c;
+    }
+  }
+}
+
 // Detection and the missed-contact repair in lanes (collider_contact_lanes.h) against their
 // scalar code, which runs where a pool does not fit the lanes: a sphere of radius 0 far from every
 // particle (no contact with it) sends the same pool to the scalar code. 9,000 particles (three of

@@ -298,6 +298,50 @@ void projectContactsOf(ContactPool& contacts, const ColliderPool& colliders,
                     });
 }
 
+void copyContactsOf(const ContactPool& contacts, std::span<const Index> listed, ContactPool& copy,
+                    std::vector<Index>& source) {
+  std::size_t total = 0;
+  for (const Index i : listed) total += contacts.runStart[i + 1] - contacts.runStart[i];
+  copy.resize(total);
+  source.resize(total);
+  std::size_t c = 0;
+  for (const Index i : listed)
+    for (Index k = contacts.runStart[i]; k != contacts.runStart[i + 1]; ++k, ++c) {
+      source[c] = k;
+      copy.particle[c] = contacts.particle[k];
+      copy.collider[c] = contacts.collider[k];
+      copy.normal[c] = contacts.normal[k];
+      copy.depth[c] = contacts.depth[k];
+      copy.lambda[c] = contacts.lambda[k];
+      copy.friction[c] = contacts.friction[k];
+    }
+}
+
+void projectCopiedContacts(ContactPool& copy, const ColliderPool& colliders,
+                           ParticlePool& particles) {
+  if (copy.size() == 0) return;
+  const bool lanes = fitsLanes(colliders);
+  if (copy.size() < kParticleGrain) {
+    projectRunsStartingIn(copy, colliders, particles, 0, copy.size(), lanes);
+    return;
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, copy.size(), kContactGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      projectRunsStartingIn(copy, colliders, particles, r.begin(), r.end(), lanes);
+                    });
+}
+
+void returnCopiedContacts(const ContactPool& copy, std::span<const Index> source,
+                          ContactPool& contacts) {
+  for (std::size_t c = 0; c < copy.size(); ++c) {
+    const Index k = source[c];
+    contacts.normal[k] = copy.normal[c];
+    contacts.depth[k] = copy.depth[c];
+    contacts.lambda[k] = copy.lambda[c];
+    contacts.friction[k] = copy.friction[c];
+  }
+}
+
 bool contactsMissing(const ContactPool& contacts, const ColliderPool& colliders,
                      const ParticlePool& particles) {
   if (colliders.size() == 0) return false;

@@ -19,6 +19,7 @@
 
 #include <cstddef>
 #include <span>
+#include <vector>
 
 #include "components/collider_pool.h"
 #include "components/contact_pool.h"
@@ -67,6 +68,18 @@ void projectContacts(ContactPool& contacts, const ColliderPool& colliders, Parti
 // the list: the multigrid cascade's projection after a coarse level's sweeps.
 void projectContactsOf(ContactPool& contacts, const ColliderPool& colliders,
                        ParticlePool& particles, std::span<const Index> listed);
+
+// A level of the multigrid cascade projects the contacts of the same few particles between each
+// of its sweeps: they are copied into a compact pool once (`copy`, and where each came from,
+// `source`), projected there as projectContactsOf projects them (each particle's run in order,
+// single contacts in lanes: the same bits), and written back (normals, depths, multipliers,
+// friction) before anything else reads the pool.
+void copyContactsOf(const ContactPool& contacts, std::span<const Index> listed, ContactPool& copy,
+                    std::vector<Index>& source);
+void projectCopiedContacts(ContactPool& copy, const ColliderPool& colliders,
+                           ParticlePool& particles);
+void returnCopiedContacts(const ContactPool& copy, std::span<const Index> source,
+                          ContactPool& contacts);
 
 // Pushes out of the colliders every free particle that ended a solve inside one without having a
 // contact in the pool; returns how many were repaired.

@@ -382,6 +382,8 @@ std::size_t runMultigridCascade(const LevelHierarchies& hierarchies,
         for (const Index i : level.particles)
           if (scratch.supportId[i] != kNoSupport && !(scratch.supportId[i] & kMeshSupport))
             onSpheres.push_back(i);
+      if (afterLevel && !onSpheres.empty())
+        afterLevel(context, onSpheres, CascadeMoment::BeforeSweeps);
       for (int k = 0; k < sweeps; ++k) {
         sweepLevel(level, limit, relaxation, particles);
         // After the last sweep the hook settles every contact of the level's particles.

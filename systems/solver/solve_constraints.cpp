@@ -68,12 +68,24 @@ void runCascade(SolvePools& pools, const SolveSettings& settings, const SubstepC
       pools.hierarchies, pools.objects, pools.particles, pools.cascade, settings.sweepsPerLevel,
       [](void* p, std::span<const Index> moved, CascadeMoment moment) {
         SolvePools& solvePools = *static_cast<SolvePools*>(p);
-        // Between two sweeps of a level: the level's collider contacts, with their friction, as
-        // between fine sweep rounds (the primitive contacts, whose projection moves particles of
-        // any level, would cost a full projection per coarse sweep).
-        if (moment == CascadeMoment::BetweenSweeps) {
-          projectContactsOf(solvePools.contacts, solvePools.colliders, solvePools.particles, moved);
+        CascadeScratch& scratch = solvePools.cascade;
+        // Between two sweeps of a level: the collider contacts of its particles on a sphere, with
+        // their friction, as between fine sweep rounds (the primitive contacts, whose projection
+        // moves particles of any level, would cost a full projection per coarse sweep); from a
+        // compact copy, taken before the sweeps and returned after them.
+        if (moment == CascadeMoment::BeforeSweeps) {
+          copyContactsOf(solvePools.contacts, moved, scratch.levelContacts,
+                         scratch.levelContactSource);
           return;
+        }
+        if (moment == CascadeMoment::BetweenSweeps) {
+          projectCopiedContacts(scratch.levelContacts, solvePools.colliders, solvePools.particles);
+          return;
+        }
+        if (scratch.levelContacts.size() > 0) {
+          returnCopiedContacts(scratch.levelContacts, scratch.levelContactSource,
+                               solvePools.contacts);
+          scratch.levelContacts.resize(0);
         }
         // The primitive contacts move particles of any level, which the collider contacts
         // projected after them must then settle: all of them, as after a sweep round.
