@@ -62,92 +62,53 @@ template <bool Plane>
           away ? oy / distance : Real(1), away ? oz / distance : Real(0)};
 }
 
-// inReach of particle_contacts.cpp for a motion from x to e whose start's gap is known:
-// min(gap(x), gap(e)) < |e − x| + reach + extra, with std::min's choice.
+// inReach of particle_contacts.cpp for a motion from x to e whose start's gap is known, before its
+// extra reach: the nearer end's gap, min(gap(x), gap(e)) with std::min's choice, and |e − x| +
+// reach. The motion reaches the collider where gap < reach + extra.
+struct Approach {
+  Real gap, reach;
+};
+
 template <bool Plane>
-[[gnu::always_inline]] inline bool reaches(const Collider& collider, Real contactReach, Real extra,
-                                           const Real* x, Real startGap, Real ex, Real ey,
-                                           Real ez) {
+[[gnu::always_inline]] inline Approach approachOf(const Collider& collider, Real contactReach,
+                                                  const Real* x, Real startGap, Real ex, Real ey,
+                                                  Real ez) {
   const Real mx = ex - x[0], my = ey - x[1], mz = ez - x[2];
-  const Real reach = std::sqrt(sumOfThree(mx * mx, my * my, mz * mz)) + contactReach + extra;
+  const Real reach = std::sqrt(sumOfThree(mx * mx, my * my, mz * mz)) + contactReach;
   const Real endGap = surfaceOf<Plane>(collider, ex, ey, ez).gap;
-  return (endGap < startGap ? endGap : startGap) < reach;
+  return {endGap < startGap ? endGap : startGap, reach};
 }
 
-// What countCollidersInReach reads and writes, for its loops.
+// What countCollidersInReach and countMissingContacts read and write, for their loops.
 struct ReachLanes {
   const Real* x;
   const Real* v;
   const Real* w;
   const Real* to;          // the second ends, or null
   const Real* extraReach;  // or null
+  // Where given (the particles' runs in the pool), only particles without a contact are counted,
+  // and the missing test runs beside the count.
+  const Index* runStart;
   Real h, contactReach;
   Index* count;
   Index* colliderBits;
 };
 
-// countCollidersInReach's loop for one collider, with or without a second end to reach and an
-// extra reach per particle: choices made outside the loop (a load under a mask cost more than the
-// rest of the lane). These templates are inlined into each instruction set's build of their caller
-// (a lambda there was compiled apart, for the baseline set).
-template <bool Plane, bool Reached, bool Extra>
+// The loop for one collider, with or without a second end to reach, an extra reach per particle
+// and the missing test (Missing: the particles without a contact only, and whether one's motion to
+// the second end comes within reach without its extra reach): choices made outside the loop (a
+// load under a mask cost more than the rest of the lane). These templates are inlined into each
+// instruction set's build of their caller (a lambda there was compiled apart, for the baseline
+// set).
+template <bool Plane, bool Reached, bool Extra, bool Missing>
 [[gnu::always_inline]] inline void addCollidersInReach(const Collider& collider,
                                                        const ReachLanes& lanes, Index bit,
-                                                       std::size_t begin, std::size_t end) {
+                                                       std::size_t begin, std::size_t end,
+                                                       int& missing) {
+  static_assert(Reached || !Missing, "the missing test is about the second end");
   const Real *x = lanes.x, *v = lanes.v, *w = lanes.w, *to = lanes.to;
   const Real* extraReach = lanes.extraReach;
-  const Real h = lanes.h, contactReach = lanes.contactReach;
-  Index* count = lanes.count;
-  Index* colliderBits = lanes.colliderBits;
-#pragma omp simd
-  for (std::size_t i = begin; i < end; ++i) {
-    const Real* xi = x + 3 * i;
-    const Real* vi = v + 3 * i;
-    const Real extra = Extra ? extraReach[i] : Real(0);
-    const Real startGap = surfaceOf<Plane>(collider, xi[0], xi[1], xi[2]).gap;
-    bool touches = reaches<Plane>(collider, contactReach, extra, xi, startGap, xi[0] + h * vi[0],
-                                  xi[1] + h * vi[1], xi[2] + h * vi[2]);
-    if constexpr (Reached) {
-      const Real* ti = to + 3 * i;
-      touches = touches |
-                reaches<Plane>(collider, contactReach, extra, xi, startGap, ti[0], ti[1], ti[2]);
-    }
-    const bool counted = (w[i] != 0) & touches;
-    count[i] += counted ? Index(1) : Index(0);
-    colliderBits[i] |= counted ? bit : Index(0);
-  }
-}
-
-template <bool Plane, bool Reached>
-[[gnu::always_inline]] inline void addCollidersInReach(const Collider& collider,
-                                                       const ReachLanes& lanes, Index bit,
-                                                       std::size_t begin, std::size_t end) {
-  if (lanes.extraReach)
-    addCollidersInReach<Plane, Reached, true>(collider, lanes, bit, begin, end);
-  else
-    addCollidersInReach<Plane, Reached, false>(collider, lanes, bit, begin, end);
-}
-
-template <bool Plane>
-[[gnu::always_inline]] inline void addCollidersInReach(const Collider& collider,
-                                                       const ReachLanes& lanes, Index bit,
-                                                       std::size_t begin, std::size_t end) {
-  if (lanes.to)
-    addCollidersInReach<Plane, true>(collider, lanes, bit, begin, end);
-  else
-    addCollidersInReach<Plane, false>(collider, lanes, bit, begin, end);
-}
-
-// countMissingContacts' loop for one collider: countCollidersInReach's with reached = p, for the
-// particles without a contact only, and the missing test (the motion x → p within reach without
-// the extra reach) beside it, from the same gap and length.
-template <bool Plane, bool Extra>
-[[gnu::always_inline]] inline void addMissingInReach(const Collider& collider,
-                                                     const ReachLanes& lanes, const Index* runStart,
-                                                     Index bit, std::size_t begin, std::size_t end,
-                                                     int& missing) {
-  const Real *x = lanes.x, *v = lanes.v, *w = lanes.w, *p = lanes.to;
-  const Real* extraReach = lanes.extraReach;
+  const Index* runStart = lanes.runStart;
   const Real h = lanes.h, contactReach = lanes.contactReach;
   Index* count = lanes.count;
   Index* colliderBits = lanes.colliderBits;
@@ -156,23 +117,68 @@ template <bool Plane, bool Extra>
   for (std::size_t i = begin; i < end; ++i) {
     const Real* xi = x + 3 * i;
     const Real* vi = v + 3 * i;
-    const Real* pi = p + 3 * i;
     const Real extra = Extra ? extraReach[i] : Real(0);
     const Real startGap = surfaceOf<Plane>(collider, xi[0], xi[1], xi[2]).gap;
-    const bool predicted = reaches<Plane>(collider, contactReach, extra, xi, startGap,
-                                          xi[0] + h * vi[0], xi[1] + h * vi[1], xi[2] + h * vi[2]);
-    // reaches() toward p, its reach split: (length + contactReach) + extra.
-    const Real mx = pi[0] - xi[0], my = pi[1] - xi[1], mz = pi[2] - xi[2];
-    const Real withoutExtra = std::sqrt(sumOfThree(mx * mx, my * my, mz * mz)) + contactReach;
-    const Real endGap = surfaceOf<Plane>(collider, pi[0], pi[1], pi[2]).gap;
-    const Real gap = endGap < startGap ? endGap : startGap;
-    const bool eligible = (w[i] != 0) & (runStart[i] == runStart[i + 1]);
-    const bool counted = eligible & (predicted | (gap < withoutExtra + extra));
+    const Approach predicted =
+        approachOf<Plane>(collider, contactReach, xi, startGap, xi[0] + h * vi[0],
+                          xi[1] + h * vi[1], xi[2] + h * vi[2]);
+    bool touches = predicted.gap < predicted.reach + extra;
+    bool eligible = w[i] != 0;
+    if constexpr (Missing) eligible = eligible & (runStart[i] == runStart[i + 1]);
+    if constexpr (Reached) {
+      const Real* ti = to + 3 * i;
+      const Approach reached =
+          approachOf<Plane>(collider, contactReach, xi, startGap, ti[0], ti[1], ti[2]);
+      touches = touches | (reached.gap < reached.reach + extra);
+      if constexpr (Missing) anyMissing |= (eligible & (reached.gap < reached.reach)) ? 1 : 0;
+    }
+    const bool counted = eligible & touches;
     count[i] += counted ? Index(1) : Index(0);
     colliderBits[i] |= counted ? bit : Index(0);
-    anyMissing |= (eligible & (gap < withoutExtra)) ? 1 : 0;
   }
   missing |= anyMissing;
+}
+
+template <bool Plane, bool Reached, bool Missing>
+[[gnu::always_inline]] inline void addCollidersInReach(const Collider& collider,
+                                                       const ReachLanes& lanes, Index bit,
+                                                       std::size_t begin, std::size_t end,
+                                                       int& missing) {
+  if (lanes.extraReach)
+    addCollidersInReach<Plane, Reached, true, Missing>(collider, lanes, bit, begin, end, missing);
+  else
+    addCollidersInReach<Plane, Reached, false, Missing>(collider, lanes, bit, begin, end, missing);
+}
+
+template <bool Plane>
+[[gnu::always_inline]] inline void addCollidersInReach(const Collider& collider,
+                                                       const ReachLanes& lanes, Index bit,
+                                                       std::size_t begin, std::size_t end,
+                                                       int& missing) {
+  if (!lanes.to)
+    addCollidersInReach<Plane, false, false>(collider, lanes, bit, begin, end, missing);
+  else if (lanes.runStart)
+    addCollidersInReach<Plane, true, true>(collider, lanes, bit, begin, end, missing);
+  else
+    addCollidersInReach<Plane, true, false>(collider, lanes, bit, begin, end, missing);
+}
+
+// Both counts over particles [begin, end): every collider's loop, a bit each. Returns the missing
+// test's answer (false where lanes.runStart is null).
+[[gnu::always_inline]] inline bool countInReach(const ColliderPool& colliders,
+                                                const ReachLanes& lanes, std::size_t begin,
+                                                std::size_t end) {
+  for (std::size_t i = begin; i < end; ++i) lanes.count[i] = lanes.colliderBits[i] = 0;
+  int missing = 0;
+  for (std::size_t k = 0; k < colliders.size(); ++k) {
+    const Collider collider = colliderOf(colliders, static_cast<Index>(k));
+    const Index bit = Index(1) << k;
+    if (collider.radius == 0)
+      addCollidersInReach<true>(collider, lanes, bit, begin, end, missing);
+    else
+      addCollidersInReach<false>(collider, lanes, bit, begin, end, missing);
+  }
+  return missing != 0;
 }
 
 // markInsideColliders' loop for one collider.
@@ -284,19 +290,12 @@ void countCollidersInReach(const ColliderPool& colliders, const ParticlePool& pa
                          particles.w.data(),
                          reached ? reached->data() : nullptr,
                          extraReach,
+                         nullptr,
                          h,
                          contactReach,
                          count,
                          colliderBits};
-  for (std::size_t i = begin; i < end; ++i) count[i] = colliderBits[i] = 0;
-  for (std::size_t k = 0; k < colliders.size(); ++k) {
-    const Collider collider = colliderOf(colliders, static_cast<Index>(k));
-    const Index bit = Index(1) << k;
-    if (collider.radius == 0)
-      addCollidersInReach<true>(collider, lanes, bit, begin, end);
-    else
-      addCollidersInReach<false>(collider, lanes, bit, begin, end);
-  }
+  countInReach(colliders, lanes, begin, end);
 }
 
 #if defined(__x86_64__)
@@ -310,28 +309,12 @@ bool countMissingContacts(const ColliderPool& colliders, const ParticlePool& par
                          particles.w.data(),
                          particles.p.data()->data(),
                          extraReach,
+                         runStart,
                          h,
                          contactReach,
                          count,
                          colliderBits};
-  for (std::size_t i = begin; i < end; ++i) count[i] = colliderBits[i] = 0;
-  int missing = 0;
-  for (std::size_t k = 0; k < colliders.size(); ++k) {
-    const Collider collider = colliderOf(colliders, static_cast<Index>(k));
-    const Index bit = Index(1) << k;
-    if (collider.radius == 0) {
-      if (extraReach)
-        addMissingInReach<true, true>(collider, lanes, runStart, bit, begin, end, missing);
-      else
-        addMissingInReach<true, false>(collider, lanes, runStart, bit, begin, end, missing);
-    } else {
-      if (extraReach)
-        addMissingInReach<false, true>(collider, lanes, runStart, bit, begin, end, missing);
-      else
-        addMissingInReach<false, false>(collider, lanes, runStart, bit, begin, end, missing);
-    }
-  }
-  return missing != 0;
+  return countInReach(colliders, lanes, begin, end);
 }
 
 #if defined(__x86_64__)
