@@ -245,8 +245,9 @@ void expectPoolMatchesGenericSweep(World& world, ConstraintPool<N> ConstraintPoo
     most = std::max(most, (batchedParticles.p[i] - scalarParticles.p[i]).norm());
     moved = std::max(moved, (scalarParticles.p[i] - state.particles.p[i]).norm());
   }
-  // Float rounding of O(1) m coordinates, a few ulps, carried through five sweeps.
-  EXPECT_LT(most, 1e-5f) << toString(kind);
+  // Float rounding of O(1) m coordinates, a few ulps, carried through five sweeps; a tangled
+  // rope's sweeps move particles by metres, and its rounding grows with the corrections.
+  EXPECT_LT(most, 1e-5f * std::max(Real(1), moved)) << toString(kind) << ", largest move " << moved;
   EXPECT_GT(moved, 1e-4f) << toString(kind);
   for (std::size_t c = 0; c < scalarPool.size(); ++c)
     EXPECT_NEAR(batchedPool.lambda[c], scalarPool.lambda[c],

@@ -273,8 +273,10 @@ TEST(Kernels, EachFamilyReturnsToItsRestValue) {
   EXPECT_NEAR((pair[0] + dx[0] - pair[1] - dx[1]).norm(), 1, 1e-6);
 }
 
-// The compliance is chosen by the sign of C: a hard stretch compliance with a huge compression
-// compliance removes all of an extension and barely resists a compression (cloth that buckles).
+// The compliance is chosen by the side the constraint force ends on; with no multiplier yet (the
+// first projection of a substep) that is the sign of C: a hard stretch compliance with a huge
+// compression compliance removes all of an extension and barely resists a compression (cloth that
+// buckles).
 TEST(Kernels, StretchAndCompressionUseTheirOwnCompliance) {
   const Points<2> stretched = {Vec3(0, 0, 0), Vec3(2, 0, 0)};
   const Points<2> compressed = {Vec3(0, 0, 0), Vec3(0.5f, 0, 0)};
@@ -287,6 +289,29 @@ TEST(Kernels, StretchAndCompressionUseTheirOwnCompliance) {
   EXPECT_NEAR((dx[1] - dx[0]).norm(), 1, 1e-6);  // the whole excess removed
   projectConstraint<DistanceKernel>(compressed, compressed, {1, 1}, terms, dx);
   EXPECT_LT((dx[1] - dx[0]).norm(), 1e-5);  // 0.5 / (2 + 1e6): barely pushed apart
+}
+
+// An edge that carries tension (λ < 0 from earlier sweeps of the substep) and that a sweep carried
+// just short of its rest length is still on the stretch side: the step puts it back at its rest
+// length and keeps most of the tension. Choosing the compliance by the sign of C alone took the
+// soft compression compliance there, and the step λ + Δλ = (s λ − C)/(s + α̃) ≈ 0 returned the
+// whole tension as a push: here 0.5 per end, the edge thrown out to about twice its length.
+TEST(Kernels, AnEdgeUnderTensionJustBelowRestKeepsItsStretchCompliance) {
+  const Points<2> pair = {Vec3(0, 0, 0), Vec3(0.999f, 0, 0)};
+  ProjectionTerms terms;
+  terms.rest = 1;
+  terms.alphaTilde = 0;
+  terms.alphaTildeBelow = 1e6;
+  terms.lambda = -0.5f;  // tension: s λ − C = 2 (−0.5) + 0.001 < 0
+  Points<2> dx;
+  const Real dLambda = projectConstraint<DistanceKernel>(pair, pair, {1, 1}, terms, dx);
+  EXPECT_NEAR((pair[1] + dx[1] - pair[0] - dx[0]).norm(), 1, 1e-6);
+  EXPECT_NEAR(dLambda, 0.0005f, 1e-6);  // −C / s: the tension eased by what the edge needs
+  EXPECT_LT(terms.lambda + dLambda, 0);
+  // Without the tension the same edge is compressed and barely resisted.
+  terms.lambda = 0;
+  projectConstraint<DistanceKernel>(pair, pair, {1, 1}, terms, dx);
+  EXPECT_LT((dx[1] - dx[0]).norm(), 1e-8);
 }
 
 // Damping acts on the velocity along ∇C only: with γ > 0 the correction opposes the motion

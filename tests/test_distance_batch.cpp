@@ -23,7 +23,9 @@ namespace nucleon {
 namespace {
 
 // 37 constraints (four full batches and a remainder), none sharing a free particle: constraint k
-// joins particles 2k and 2k+1. Every fifth has a pinned end, one has coincident ends.
+// joins particles 2k and 2k+1. Every fifth has a pinned end, one has coincident ends; some sit
+// just short of or past their rest length with a multiplier of the other side, where the side a
+// step ends on is not the sign of C.
 struct Fixture {
   ParticlePool particles;
   ConstraintPool<2> pool;
@@ -41,8 +43,19 @@ struct Fixture {
       if (k == 11) particles.p[b] = particles.p[a];  // degenerate: no direction
       const Real rest = 0.2f + 0.1f * unit(random);  // some stretched, some compressed
       const Real alpha = k % 3 == 0 ? 0 : 1e-4f, alphaBelow = k % 4 == 0 ? 0 : 1e-3f;
-      pool.append({a, b}, rest, alpha, alphaBelow, 0);
-      pool.lambda.back() = 0.01f * unit(random);
+      const Real length = (particles.p[a] - particles.p[b]).norm();
+      if (k % 6 == 1 && k != 11) {
+        // Carrying tension just short of rest: the stretch side (C < 0 but s λ − C < 0).
+        pool.append({a, b}, length + 0.002f, alpha, alphaBelow, 0);
+        pool.lambda.back() = -0.05f;
+      } else if (k % 6 == 2) {
+        // Pushed apart just past rest: the compression side (C > 0 but s λ − C > 0).
+        pool.append({a, b}, length - 0.002f, alpha, alphaBelow, 0);
+        pool.lambda.back() = 0.05f;
+      } else {
+        pool.append({a, b}, rest, alpha, alphaBelow, 0);
+        pool.lambda.back() = 0.01f * unit(random);
+      }
     }
     particles.x = particles.p;
   }

@@ -193,12 +193,13 @@ NUCLEON_LANES __m256 multiplierStep(const AngleLanes<N>& a, const __m256* w, __m
         constraint,
         _mm256_and_ps(_mm256_cmp_ps(constraint, _mm256_sub_ps(zero, pi), _CMP_LE_OQ), twoPi));
   }
-  const __m256 below = _mm256_cmp_ps(constraint, zero, _CMP_LT_OQ);
-  const __m256 alpha =
-      _mm256_mul_ps(_mm256_blendv_ps(stretchCompliance, compressionCompliance, below), inverseH2);
   __m256 stiffness = zero;
   for (int k = 0; k < N; ++k)
     stiffness = _mm256_fmadd_ps(w[k], dot(a.gradient[k], a.gradient[k]), stiffness);
+  // The side the multiplier ends on: C < s λ (kernel_detail::belowRest, constraint_kernels.h).
+  const __m256 below = _mm256_cmp_ps(constraint, _mm256_mul_ps(stiffness, lambda), _CMP_LT_OQ);
+  const __m256 alpha =
+      _mm256_mul_ps(_mm256_blendv_ps(stretchCompliance, compressionCompliance, below), inverseH2);
   const __m256 active =
       _mm256_and_ps(a.valid, _mm256_cmp_ps(stiffness, _mm256_set1_ps(1e-12f), _CMP_GE_OQ));
   const __m256 numerator = _mm256_sub_ps(zero, _mm256_fmadd_ps(alpha, lambda, constraint));

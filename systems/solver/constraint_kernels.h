@@ -30,6 +30,17 @@ NUCLEON_KERNEL Real wrapAngle(Real a) {
   while (a <= -pi) a += 2 * pi;
   return a;
 }
+// Whether a projection takes the compression compliance (α̃ below rest) or the stretch one. The
+// multiplier a step reaches, λ + Δλ = (s λ − C) / (s + α̃) with s = Σ w ‖∇C‖², has the sign of
+// s λ − C whichever α̃ it uses, so the side is chosen by that sign: the energy's branch the
+// constraint force ends on. Choosing by the sign of C alone would, for a stiff-stretch,
+// soft-compression edge that a sweep carried just past its rest length, take the soft α̃ with a
+// large tension λ and return all of that tension at once as a push (Δλ ≈ −λ): the edge is thrown
+// back out stretched, and a drape with soft compression blew up. With λ = 0 (the first
+// projection of a substep) this is the sign of C.
+NUCLEON_KERNEL bool belowRest(Real constraint, Real stiffness, Real lambda) {
+  return constraint < stiffness * lambda;
+}
 }  // namespace kernel_detail
 
 // Type 1: the distance between two points (stretch of edges).
@@ -189,8 +200,8 @@ struct VolumeKernel {
 // What one projection needs besides positions and inverse masses.
 struct ProjectionTerms {
   Real rest = 0;             // C's rest value
-  Real alphaTilde = 0;       // α / h² when C ≥ 0
-  Real alphaTildeBelow = 0;  // α / h² when C < 0
+  Real alphaTilde = 0;       // α / h² on the stretch side
+  Real alphaTildeBelow = 0;  // α / h² on the compression side (kernel_detail::belowRest)
   Real gamma = 0;            // τ / h, the damping time over the substep
   Real lambda = 0;           // multiplier accumulated in this substep
 };
@@ -236,7 +247,6 @@ NUCLEON_KERNEL Real projectEvaluated(Real value, const Vec3* grad, const Vec3* x
       return 0;
     }
   }
-  const Real alphaTilde = c < 0 ? terms.alphaTildeBelow : terms.alphaTilde;
   Real stiffness = 0, velocity = 0;
   if (form.unitGradients) {
     // Unit gradients skip the norms: the denominator then does not wait on them.
@@ -247,6 +257,10 @@ NUCLEON_KERNEL Real projectEvaluated(Real value, const Vec3* grad, const Vec3* x
   } else {
     for (std::size_t k = 0; k < n; ++k) stiffness += w[k] * grad[k].squaredNorm();
   }
+  // The compliance of the side the multiplier ends on (see kernel_detail::belowRest).
+  const Real alphaTilde = kernel_detail::belowRest(c, stiffness, terms.lambda)
+                              ? terms.alphaTildeBelow
+                              : terms.alphaTilde;
   if (terms.gamma > 0)
     for (std::size_t k = 0; k < n; ++k) velocity += grad[k].dot(x[k] - start[k]);
   const Real denominator = (1 + terms.gamma) * stiffness + alphaTilde;

@@ -4,16 +4,17 @@
 //   C = |d| − L,   scale = (−C − α̃ λ) / ((w_a + w_b + α̃) |d|),   Δλ = scale |d|,
 // the undamped XPBD step of Macklin et al. 2016 (eq. 18) with Δλ n = scale d sharing one division
 // (n = d/|d|): end a moves by w_a scale d, end b by −w_b scale d. α̃ is the stretch or the
-// compression compliance over h², by the sign of C. Lanes with a degenerate edge (|d| < 1e-12),
-// two fixed ends or, unilateral, a slack limit get scale 0. With α = λ = 0 this is the plain PBD
-// step −C d / ((w_a + w_b) |d|), which the hard paths take.
+// compression compliance over h², by the side the multiplier ends on (the sign of (w_a + w_b) λ −
+// C). Lanes with a degenerate edge (|d| < 1e-12), two fixed ends or, unilateral, a slack limit get
+// scale 0. With α = λ = 0 this is the plain PBD step −C d / ((w_a + w_b) |d|), which the hard paths
+// take.
 //
 // Written for float state on x86-64 with AVX2 and FMA; callers check distanceBatchesAvailable()
 // (distance_batch.h) before running a function compiled with this header's target.
 //
-// The lane kernels are compiled once per instruction set (nucleon/lanes.h): NUCLEON_LANE_ISA names the
-// set of this translation unit (the namespace its kernels live in) and NUCLEON_LANE_TARGET is the
-// target attribute of its lane functions. A file compiled for AVX-512 defines
+// The lane kernels are compiled once per instruction set (nucleon/lanes.h): NUCLEON_LANE_ISA names
+// the set of this translation unit (the namespace its kernels live in) and NUCLEON_LANE_TARGET is
+// the target attribute of its lane functions. A file compiled for AVX-512 defines
 // NUCLEON_LANES_AVX512 before its first include.
 #pragma once
 
@@ -42,10 +43,11 @@ namespace nucleon::NUCLEON_LANE_ISA::distance_lanes {
     __m256 lambda, __m256 wa, __m256 wb, __m256 inverseH2, bool unilateral) {
   const __m256 tiny = _mm256_set1_ps(1e-12f), zero = _mm256_setzero_ps();
   const __m256 constraint = _mm256_sub_ps(length, rest);
-  const __m256 below = _mm256_cmp_ps(constraint, zero, _CMP_LT_OQ);
+  const __m256 stiffness = _mm256_add_ps(wa, wb);
+  // The side the multiplier ends on: C < s λ (kernel_detail::belowRest, constraint_kernels.h).
+  const __m256 below = _mm256_cmp_ps(constraint, _mm256_mul_ps(stiffness, lambda), _CMP_LT_OQ);
   const __m256 alpha =
       _mm256_mul_ps(_mm256_blendv_ps(stretchCompliance, compressionCompliance, below), inverseH2);
-  const __m256 stiffness = _mm256_add_ps(wa, wb);
   __m256 active = _mm256_and_ps(_mm256_cmp_ps(length, tiny, _CMP_GE_OQ),
                                 _mm256_cmp_ps(stiffness, tiny, _CMP_GE_OQ));
   if (unilateral) active = _mm256_and_ps(active, _mm256_cmp_ps(constraint, zero, _CMP_GT_OQ));
