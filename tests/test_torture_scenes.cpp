@@ -79,7 +79,7 @@ TEST_P(EveryTortureScene, IsCleanInEveryFrame) {
 // worst edge is never stretched to 2 times its length. When the projections took the
 // compliance by the sign of C alone, edges carrying tension that a sweep took just below rest
 // were thrown back out: this run had 50 frames with an edge beyond 3 times its length, the worst
-// at 10.7 times (the other torture scenes' sheets likewise, up to 12.5 times;
+// at 10.7 times (the other torture scenes' sheets likewise, up to 13.8 times;
 // bench/results/2core-AMD-EPYC/solver_speed.md §20). Compression is what the cloth is free to
 // do here, so only stretch is bounded: edges shorten to a few percent of their length where the
 // sheet gathers.
