@@ -21,9 +21,10 @@ namespace nucleon {
 // What every constraint pool stores besides its particles and rest data, one entry per
 // constraint: the user's parameters.
 struct ConstraintParameters {
-  // XPBD compliance α (inverse stiffness; 0 = hard) when C ≥ 0, and when C < 0. Cloth resists
-  // stretching but buckles, so stretch gives the two directions their own α; the other families
-  // store the same value twice.
+  // XPBD compliance α (inverse stiffness; 0 = hard) on the stretch side (C ≥ 0 for a constraint
+  // that carries no force yet) and on the compression side (kernel_detail::belowRest, the side
+  // the multiplier ends on). Cloth resists stretching but buckles, so stretch gives the two
+  // directions their own α; the other families store the same value twice.
   std::vector<Real> compliance;
   std::vector<Real> compressionCompliance;
   // Stiffness-proportional (Rayleigh) damping time τ in seconds: the constraint force is

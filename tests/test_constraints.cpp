@@ -314,6 +314,32 @@ TEST(Kernels, AnEdgeUnderTensionJustBelowRestKeepsItsStretchCompliance) {
   EXPECT_LT((dx[1] - dx[0]).norm(), 1e-8);
 }
 
+// Damped, the step's multiplier is ((1 + γ) s λ − C − γ v) / ((1 + γ) s + α̃), v = ∇C·(x − x_n):
+// the side is the sign of that numerator, and where it changes both compliances give the same
+// step, so Δλ is continuous in C. Scanned over edge lengths across both candidate boundaries: the
+// damped one at C = −0.5, and the undamped one, C = s λ = −0.2, where choosing by it jumped by
+// 0.037 between neighbouring samples.
+TEST(Kernels, ADampedStepIsContinuousAcrossTheSides) {
+  ProjectionTerms terms;
+  terms.rest = 1;
+  terms.alphaTilde = 0;
+  terms.alphaTildeBelow = 1e6f;
+  terms.lambda = -0.1f;
+  terms.gamma = 3;
+  Real previous = 0, largestJump = 0;
+  for (int k = 0; k <= 400; ++k) {
+    const Real length = Real(0.3) + Real(0.002) * Real(k);  // C from −0.7 to 0.1
+    const Points<2> x = {Vec3(0, 0, 0), Vec3(length, 0, 0)};
+    const Points<2> start = {Vec3(0, 0, 0), Vec3(length + Real(0.1), 0, 0)};  // v = −0.1
+    Points<2> dx;
+    const Real dLambda = projectConstraint<DistanceKernel>(x, start, {1, 1}, terms, dx);
+    if (k > 0) largestJump = std::max(largestJump, std::abs(dLambda - previous));
+    previous = dLambda;
+  }
+  // Away from the boundary Δλ changes by 0.002 / ((1 + γ) s) = 2.5e-4 per sample at most.
+  EXPECT_LT(largestJump, 1e-3);
+}
+
 // Damping acts on the velocity along ∇C only: with γ > 0 the correction opposes the motion
 // x − x_n that changes C, and a rigid translation (which does not change C) is left alone.
 TEST(Kernels, DampingOpposesTheRateOfChangeOfCOnly) {

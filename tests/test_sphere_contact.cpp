@@ -457,12 +457,12 @@ TEST(StepProfile, CountsStagesAndProjections) {
 namespace nucleon {
 
 // Cloth that resists stretching and buckles freely (a hard stretch compliance, a compression
-// compliance of 1000 m/N, whose α̃ = α/h² is 200 times the 64² cloth's particle inverse masses),
-// dropped onto the sphere: its edges are never more stretched than the same cloth's with hard
-// compression, and no step needs a repair. Choosing the compliance by the sign of C alone threw
-// edges that carried tension back out whenever a sweep took them just below rest; this run then
-// ended with edges at 52 times their length under colored-gs (1,257 repairs) and 1.78 times
-// under multigrid, against 1.68 and 1.18 for the hard cloth.
+// compliance of 1000 m/N, whose α̃ = α/h² is about 900 times the 64² cloth's particle inverse
+// masses), dropped onto the sphere: its edges are never more stretched than the same cloth's with
+// hard compression, and no step needs a repair. Measured (worst of every tenth frame, soft
+// against hard): colored-gs 0.65 against 0.68, multigrid 0.04 against 0.30. Choosing the
+// compliance by the sign of C alone threw edges that carried tension back out whenever a sweep
+// took them just below rest; this run then reached 63 and 1.29 (1,257 repairs under colored-gs).
 TEST(SphereContact, ClothThatBucklesFreelyStaysAsTautAsHardCloth) {
   Scene scene = loadScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/cloth_sphere.json");
   ASSERT_EQ(scene.objects.size(), 1u);
@@ -474,7 +474,12 @@ TEST(SphereContact, ClothThatBucklesFreelyStaysAsTautAsHardCloth) {
       World world = buildWorld(scene);
       world.setThreads(2);
       double worst = 0;
-      for (int frame = 0; frame < scene.frames; ++frame) {
+#if defined(__SANITIZE_ADDRESS__)
+      const int frames = 60;  // memory and undefined-behaviour errors only: the drop and landing
+#else
+      const int frames = scene.frames;
+#endif
+      for (int frame = 0; frame < frames; ++frame) {
         world.step(1.0 / scene.fps);
         if (frame % 10 == 9) worst = std::max(worst, world.measure().maxStretch);
       }
@@ -483,8 +488,8 @@ TEST(SphereContact, ClothThatBucklesFreelyStaysAsTautAsHardCloth) {
       EXPECT_EQ(world.measure().nanCount, 0u);
     }
     // Soft compression takes load off the edges (they shorten where the cloth gathers) and never
-    // adds stretch; 10% covers the two runs' different folds.
-    EXPECT_LT(stretch[1], 1.1 * stretch[0] + 0.01) << toString(kind);
+    // adds stretch; 25% covers the two runs' different folds (and the double build's).
+    EXPECT_LT(stretch[1], 1.25 * stretch[0] + 0.01) << toString(kind);
   }
 }
 

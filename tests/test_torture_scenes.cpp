@@ -75,14 +75,15 @@ TEST_P(EveryTortureScene, IsCleanInEveryFrame) {
 }
 
 // The sheet dropped on a box's corners (box_static) made of cloth that buckles freely: a hard
-// stretch compliance and a compression compliance of 1000 m/N. Every frame stays clean, and the
-// worst edge is never stretched to 2 times its length. When the projections took the
-// compliance by the sign of C alone, edges carrying tension that a sweep took just below rest
-// were thrown back out: this run had 50 frames with an edge beyond 3 times its length, the worst
-// at 10.7 times (the other torture scenes' sheets likewise, up to 13.8 times;
+// stretch compliance and a compression compliance of 1000 m/N. Every frame stays clean, and no
+// edge is ever stretched beyond the suite's bound of 2.75 times its length (measured: 1.92 times
+// in the worst frame, in the float and the double build). When the projections took the compliance
+// by the sign of C alone, edges carrying tension that a sweep took just below rest were thrown back
+// out: this run had 50 frames with an edge beyond 3 times its length, the worst at 10.7 times
+// (the other torture scenes' sheets likewise, up to 13.8 times;
 // bench/results/2core-AMD-EPYC/solver_speed.md §20). Compression is what the cloth is free to
-// do here, so only stretch is bounded: edges shorten to a few percent of their length where the
-// sheet gathers.
+// do here, so only stretch is bounded (the per-frame max_stretch): edges shorten to half their
+// length where the sheet gathers.
 TEST(BucklingClothTortureScene, BoxStaticIsCleanInEveryFrame) {
   std::vector<std::string> args = {"--set", "objects.1.material.compression_compliance=1000"};
 #if defined(__SANITIZE_ADDRESS__)
@@ -95,10 +96,8 @@ TEST(BucklingClothTortureScene, BoxStaticIsCleanInEveryFrame) {
   expectCleanInEveryFrame(run);
   double worstStretch = 0;
   for (const nlohmann::json& frame : j.at("per_frame"))
-    worstStretch = std::max(worstStretch, frame.at("max_strain").get<double>());
-  // max_strain counts compression too (at most 1): a value of 1 or more is an edge stretched to
-  // twice its length or beyond. Measured: 0.92 in the worst frame.
-  EXPECT_LT(worstStretch, 1.0);
+    worstStretch = std::max(worstStretch, frame.at("max_stretch").get<double>());
+  EXPECT_LT(worstStretch, 1.75);
 }
 
 // The cases not clean yet (torture/unsolved/), at their default settings, still never crash,

@@ -311,6 +311,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
     perFrame.push_back({{"frame", frame},
                         {"ms", seconds * 1e3},
                         {"max_strain", m.maxStrain},
+                        {"max_stretch", m.maxStretch},
                         {"intersections", m.intersections},
                         {"inside_colliders", m.insideColliders},
                         {"contacts", m.contacts},

@@ -65,8 +65,9 @@ struct UserConstraintFamilyDef {
 };
 
 // The compliance and damping of one constraint (ARCHITECTURE.md §2): α in m/N-like units of C
-// per unit force (0 = hard), α when C < 0 (compressionCompliance, negative: the same as
-// `compliance`), and the Rayleigh damping time τ in seconds.
+// per unit force (0 = hard), α on the compression side (compressionCompliance, negative: the
+// same as `compliance`; a projection takes the side its multiplier ends on, which is the sign of
+// C when the constraint carries no force yet), and the Rayleigh damping time τ in seconds.
 struct ConstraintCompliance {
   Real compliance = 0;
   Real compressionCompliance = -1;

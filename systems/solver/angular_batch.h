@@ -11,7 +11,8 @@
 //           ∇_x0 θ = −t_u/‖u‖,  ∇_x1 θ = −t_v/‖v‖,  ∇_x2 θ = −∇_x0 θ − ∇_x1 θ,
 // then the undamped XPBD step (Macklin et al. 2016, eq. 18)
 //   C = wrap(θ − θ0),  Δλ = (−C − α̃λ) / (Σ_k w_k ‖∇_k θ‖² + α̃),  Δx_k = w_k Δλ ∇_k θ,
-// C wrapped to (−π, π] and α̃ the compliance over h² by the sign of C. The arctangent is a
+// C wrapped to (−π, π] and α̃ the compliance over h² by the side the multiplier ends on (the sign
+// of s λ − C; kernel_detail::belowRest). The arctangent is a
 // polynomial (the octant reduction and minimax odd polynomial of Cephes' atanf, relative error
 // about 2e-7 on [0, 1]), not a call of the math library per constraint: the scalar kernels' atan2
 // was most of their time. Degenerate constraints (an edge or a wing of zero length or area, a

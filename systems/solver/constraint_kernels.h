@@ -31,15 +31,21 @@ NUCLEON_KERNEL Real wrapAngle(Real a) {
   return a;
 }
 // Whether a projection takes the compression compliance (α̃ below rest) or the stretch one. The
-// multiplier a step reaches, λ + Δλ = (s λ − C) / (s + α̃) with s = Σ w ‖∇C‖², has the sign of
-// s λ − C whichever α̃ it uses, so the side is chosen by that sign: the energy's branch the
-// constraint force ends on. Choosing by the sign of C alone would, for a stiff-stretch,
-// soft-compression edge that a sweep carried just past its rest length, take the soft α̃ with a
-// large tension λ and return all of that tension at once as a push (Δλ ≈ −λ): the edge is thrown
-// back out stretched, and a drape with soft compression blew up. With λ = 0 (the first
-// projection of a substep) this is the sign of C.
+// multiplier an undamped step reaches, λ + Δλ = (s λ − C) / (s + α̃) with s = Σ w ‖∇C‖², has the
+// sign of s λ − C whichever α̃ it uses, so the side is chosen by that sign: the branch the
+// constraint force ends on, and at the boundary both compliances give the same step (Δλ = −λ).
+// Choosing by the sign of C alone would, for a stiff-stretch, soft-compression edge that a sweep
+// carried just below its rest length, take the soft α̃ with a large tension λ and return all of
+// that tension at once as a push (Δλ ≈ −λ): the edge is thrown back out stretched, and a drape
+// with soft compression blew up. With λ = 0 (the first projection of a substep) this is the sign
+// of C. A damped step (γ = τ/h, rate term v = ∇C·(x − x_n)) reaches
+// ((1 + γ) s λ − C − γ v) / ((1 + γ) s + α̃): its side is the sign of that numerator.
 NUCLEON_KERNEL bool belowRest(Real constraint, Real stiffness, Real lambda) {
   return constraint < stiffness * lambda;
+}
+NUCLEON_KERNEL bool belowRestDamped(Real constraint, Real stiffness, Real lambda, Real gamma,
+                                    Real rate) {
+  return constraint + gamma * rate < (1 + gamma) * stiffness * lambda;
 }
 }  // namespace kernel_detail
 
@@ -257,12 +263,13 @@ NUCLEON_KERNEL Real projectEvaluated(Real value, const Vec3* grad, const Vec3* x
   } else {
     for (std::size_t k = 0; k < n; ++k) stiffness += w[k] * grad[k].squaredNorm();
   }
-  // The compliance of the side the multiplier ends on (see kernel_detail::belowRest).
-  const Real alphaTilde = kernel_detail::belowRest(c, stiffness, terms.lambda)
-                              ? terms.alphaTildeBelow
-                              : terms.alphaTilde;
   if (terms.gamma > 0)
     for (std::size_t k = 0; k < n; ++k) velocity += grad[k].dot(x[k] - start[k]);
+  // The compliance of the side the multiplier ends on (see kernel_detail::belowRest).
+  const bool below = terms.gamma > 0 ? kernel_detail::belowRestDamped(c, stiffness, terms.lambda,
+                                                                      terms.gamma, velocity)
+                                     : kernel_detail::belowRest(c, stiffness, terms.lambda);
+  const Real alphaTilde = below ? terms.alphaTildeBelow : terms.alphaTilde;
   const Real denominator = (1 + terms.gamma) * stiffness + alphaTilde;
   for (std::size_t k = 0; k < n; ++k) dx[k].setZero();
   if (stiffness < kernel_detail::kTiny) return 0;

@@ -4,7 +4,8 @@
 // projection is the undamped XPBD update of constraint_kernels.h (Macklin et al. 2016, eq. 18):
 //   C = |x_a − x_b| − L,  Δλ = (−C − α̃λ) / (w_a + w_b + α̃),  x_a += w_a Δλ n,  x_b −= w_b Δλ n,
 // with n = (x_a − x_b)/|x_a − x_b| and α̃ the stretch or compression compliance over h² by the
-// sign of C. Results equal the scalar path's up to floating-point rounding (FMA contraction).
+// side the multiplier ends on (the sign of (w_a + w_b) λ − C; kernel_detail::belowRest). Results
+// equal the scalar path's up to floating-point rounding (FMA contraction).
 #pragma once
 
 #include <array>
