@@ -186,7 +186,7 @@ TEST(BundledScenes, BalloonInflatesIsSqueezedAndLeaks) {
 // plane (the net bulges 27 cm), and it ends on the ground, its lowest point at the ground's
 // thickness, rigid (every edge within 2% of its length: the ground's and the net's contacts,
 // projected after each round's shape matching, dent it as it rests on them, by 0.75–1.45% in
-// frames 60–120, 1.04% in the last; as the trampoline's ball below). In the impact it is not: the
+// frames 60–120, 0.99% in the last; as the trampoline's ball below). In the impact it is not: the
 // crossing fail-safe stops a few of its particles (5 in the run) where the rest go on at 8 m/s,
 // and for that frame an edge is 11% off its length, until shape matching pulls the ball together
 // in the next substep (rigid impact zones that take a whole rigid body are not built).
