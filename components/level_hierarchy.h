@@ -17,8 +17,10 @@
 //                                are kept here because the parents below are read from this
 //                                graph). Level l ≥ 1: the coarse constraints, UNILATERAL distance
 //                                limits C = |p_i − p_j| − restLength ≤ 0 (project only when
-//                                C > 0), restLength the rest-pose distance of the two particles,
-//                                never between two particles of inverse mass 0. Every edge joins
+//                                C > 0), restLength the rest-pose distance of the two particles
+//                                (times 1 + the strain limit of a material that has one,
+//                                Material::stretchLimit; pathRest likewise), never between two
+//                                particles of inverse mass 0. Every edge joins
 //                                two particles of this level, edges[e][0] < edges[e][1].
 //   colorOffset                  the edges are stored in color order: color c is the edges
 //                                [colorOffset[c], colorOffset[c+1]), and no two edges of one

@@ -138,6 +138,11 @@ TEST(World, RejectsBadInputWithoutChangingState) {
   bad = point;
   bad.pins = {3};
   EXPECT_THROW(world.addParticles(bad), std::invalid_argument);
+  for (Real limit : {std::numeric_limits<Real>::quiet_NaN(), Real(2000)}) {
+    bad = point;
+    bad.material.stretchLimit = limit;
+    EXPECT_THROW(world.addParticles(bad), std::invalid_argument) << limit;
+  }
   ObjectDef tri;
   tri.vertices = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(2, 0, 0)};  // collinear: zero area
   tri.triangles = {{0, 1, 2}};

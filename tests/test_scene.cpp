@@ -117,6 +117,9 @@ TEST(Scene, ErrorsNameTheProblem) {
   expectError(R"({"objects": [{"type": "cloth", "shape": {"grid": {}},
                  "material": {"bend_compliance": 0.1, "bend_model": "bergou"}}]})",
               "objects[0].material.bend_model: expected dihedral or isometric, got 'bergou'");
+  expectError(R"({"objects": [{"type": "cloth", "shape": {"grid": {}},
+                 "material": {"stretch_compliance": 1e-4, "stretch_limit": -0.5}}]})",
+              "objects[0].material.stretch_limit: must be in [0, 1000], got -0.5");
   expectError(R"({"objects": [{"type": "cloth", "shape": {"tube": {"resolution": [2, 4]}}}]})",
               "shape.tube.resolution: expected whole numbers [around ≥ 3, along ≥ 2]");
   expectError(R"({"objects": [{"type": "cloth", "shape": {"tube": {"axis": [0, 0, 0]}}}]})",

@@ -256,6 +256,26 @@ TEST(Tethers, LimitsAreNeverShorterThanTheRestShape) {
   }
 }
 
+// Compliant stretch has no tethers by default (its stretch under a load has no bound known in
+// advance); with a strain limit ε it gets the inextensible cloth's tethers, each limit times
+// 1 + ε (to float rounding of the stored limits, 1e-6 relative).
+TEST(Tethers, ACompliantClothIsTetheredOnlyWithAStrainLimitAndAtItsFactor) {
+  const int n = 16;
+  ObjectDef cloth = gridWithPins(n, {0, n - 1});
+  const TetherConstraints hard = tethersOf(cloth);
+  ASSERT_GT(hard.size(), 0u);
+  cloth.material.stretchCompliance = Real(1e-4);
+  EXPECT_EQ(tethersOf(cloth).size(), 0u);
+  const double limit = 0.07;
+  cloth.material.stretchLimit = Real(limit);
+  const TetherConstraints limited = tethersOf(cloth);
+  ASSERT_EQ(limited.size(), hard.size());
+  for (std::size_t k = 0; k < hard.size(); ++k) {
+    EXPECT_EQ(limited.particles[k], hard.particles[k]);
+    EXPECT_NEAR(limited.rest[k], (1 + limit) * hard.rest[k], 1e-6 * limited.rest[k]) << k;
+  }
+}
+
 // A 48² cloth hung from two adjacent corners by 4 sweeps of each backend. With a tether to the
 // nearest pin only, the halves hang from different pins and part along the mid-line where the
 // nearest pin changes: measured, the edges across it averaged 2.9–4.1 times the strain of the

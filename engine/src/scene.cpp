@@ -486,6 +486,7 @@ SceneObject readObject(const Reader& o, const std::string& folder,
                  "damping",
                  "thickness",
                  "tethers",
+                 "stretch_limit",
                  "collide",
                  "self_collision",
                  "friction",
@@ -520,6 +521,8 @@ SceneObject readObject(const Reader& o, const std::string& folder,
         static_cast<Real>(m.number("volume_compliance", mat.volumeCompliance, 0, 1e6));
     mat.damping = static_cast<Real>(m.number("damping", mat.damping, 0, 1e3));
     mat.tethers = m.boolean("tethers", mat.tethers);
+    if (m.has("stretch_limit"))
+      mat.stretchLimit = static_cast<Real>(m.number("stretch_limit", 0, 0, 1000));
     mat.selfCollision = m.boolean("self_collision", mat.selfCollision);
     mat.friction = static_cast<Real>(m.number("friction", mat.friction, 0, 1e3));
     // μ_s defaults to at least μ_k, as for colliders.

@@ -64,6 +64,8 @@ void validateCommon(const ObjectDef& def, const std::string& what, std::size_t f
           what + ": shear compliance must be finite and non-negative");
   require(std::isfinite(m.twistCompliance) && m.twistCompliance >= 0,
           what + ": twist compliance must be finite and non-negative");
+  require(std::isfinite(m.stretchLimit) && m.stretchLimit <= 1000,
+          what + ": stretch limit must be finite and at most 1000 (negative: the default)");
   require(std::isfinite(m.damping) && m.damping >= 0,
           what + ": damping must be finite and non-negative");
   validateSchedule(def.schedule, what + " schedule", familyCount);

@@ -134,6 +134,21 @@ struct Material {
   // the sweeps are too few to carry its weight, and costs one projection per vertex and cluster
   // held (two for a cloth hung from two corners, one for a pinned row).
   bool tethers = true;
+  // The strain at which the long-range limits grip: the tethers, and the coarse limits of the
+  // multigrid backend's cascade (each a distance ≤ (1 + stretchLimit) × its rest length).
+  // Negative (the default): 0 for inextensible stretch, where no two points of the material can
+  // move apart beyond their rest distance; none for compliant stretch (stretchCompliance > 0),
+  // whose stretch under a load has no bound a limit could know in advance, so such a material
+  // gets neither tethers nor a cascade. A value ≥ 0 is a strain limit (Provot 1995): it gives
+  // compliant stretch both, elastic up to that strain and hard beyond it, at the cost of the
+  // material's response to loads that would stretch it further.
+  Real stretchLimit = -1;
+  // The strain at which this material's long-range limits grip, or a negative value when it has
+  // none (stretchLimit's default for compliant stretch).
+  Real longRangeStrain() const {
+    if (stretchLimit >= 0) return stretchLimit;
+    return stretchCompliance == 0 ? 0 : -1;
+  }
   // Stiffness-proportional damping time τ (s) of every constraint of the object: the constraint
   // force is −(C + τ dC/dt)/α. 0 = undamped. With α = 0 it makes C relax as e^(−t/τ).
   Real damping = 0;

@@ -126,7 +126,8 @@ void appendRopeConstraints(ConstraintPools& pools, const SimplicialComplex& c,
 
 // Long-range attachments (Kim, Chentanez and Müller 2012): each free vertex is tethered to the
 // attachment points with its geodesic distance in the rest shape as the limit: the longest reach
-// the vertex has while the material between stays unstretched.
+// the vertex has while the material between stays unstretched, or stretched by no more than
+// `strain` (Material::stretchLimit), whose factor 1 + strain every limit carries.
 //
 // Tethering each vertex to its nearest pin only splits a cloth held at separate points: along
 // the line where the nearest pin changes, neighbours hang from different pins, only the
@@ -160,7 +161,7 @@ constexpr std::size_t kMaxClusters = 4;
 constexpr double kSpread = 0.25;
 
 void appendTethers(ConstraintPools& pools, const SimplicialComplex& c, std::span<const Vec3> rest,
-                   std::span<const Index> pins, Index first) {
+                   std::span<const Index> pins, Index first, double strain) {
   const std::size_t n = c.vertexCount();
   const auto& edges = c.edges.vertices;
   auto length = [&](Index u, Index v) { return (rest[u] - rest[v]).cast<double>().norm(); };
@@ -281,7 +282,8 @@ void appendTethers(ConstraintPools& pools, const SimplicialComplex& c, std::span
     });
     for (const Path* p = begin; p != begin + count[v]; ++p)
       if (p == begin || length(p->pin, begin->pin) > kSpread * begin->length)
-        pools.tether.append({first + v, first + p->pin}, static_cast<Real>(p->length), 0, 0, 0);
+        pools.tether.append({first + v, first + p->pin},
+                            static_cast<Real>(p->length * (1 + strain)), 0, 0, 0);
   }
 }
 
@@ -299,13 +301,13 @@ void appendObjectConstraints(ConstraintPools& pools, ObjectKind kind,
   switch (kind) {
     case ObjectKind::Cloth:
       appendClothConstraints(pools, complex, rest, first, m);
-      if (m.tethers && m.stretchCompliance == 0 && !pins.empty())
-        appendTethers(pools, complex, rest, pins, first);
+      if (m.tethers && m.longRangeStrain() >= 0 && !pins.empty())
+        appendTethers(pools, complex, rest, pins, first, m.longRangeStrain());
       break;
     case ObjectKind::Rope:
       appendRopeConstraints(pools, complex, rest, first, m);
-      if (m.tethers && m.stretchCompliance == 0 && !pins.empty())
-        appendTethers(pools, complex, rest, pins, first);
+      if (m.tethers && m.longRangeStrain() >= 0 && !pins.empty())
+        appendTethers(pools, complex, rest, pins, first, m.longRangeStrain());
       break;
     case ObjectKind::Solid:
       for (const Simplex<3>& t : complex.tets.vertices)

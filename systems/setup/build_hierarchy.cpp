@@ -340,6 +340,16 @@ void buildLevelHierarchies(LevelHierarchies& out, const std::vector<ObjectRecord
     // momentum (a spinning rigid ball gained 1% of it in half a second).
     if (!deformable || object.complex.edges.size() == 0 || object.material.rigidity >= 1) continue;
     out.objects.push_back(buildObjectHierarchy(object, static_cast<Index>(o), particles, settings));
+    // A material with a strain limit (Material::stretchLimit) may stretch that far between any
+    // two of its points: every coarse limit, and the rest length of the path it is compared
+    // with, grows by the same factor, so the cascade grips where the material is at its limit.
+    const Real strain = object.material.longRangeStrain();
+    if (strain > 0)
+      for (std::size_t l = 1; l < out.objects.back().levels.size(); ++l) {
+        HierarchyLevel& level = out.objects.back().levels[l];
+        for (Real& length : level.restLength) length *= 1 + strain;
+        for (Real& length : level.pathRest) length *= 1 + strain;
+      }
   }
   out.coarseEdges = 0;
   for (ObjectHierarchy& hierarchy : out.objects)

@@ -20,7 +20,7 @@ constexpr std::size_t kParticleGrain = 2048;
 
 bool cascades(const ObjectHierarchy& hierarchy, std::span<const ObjectRecord> objects) {
   return hierarchy.levels.size() >= 2 && hierarchy.object < objects.size() &&
-         objects[hierarchy.object].material.stretchCompliance == 0;
+         objects[hierarchy.object].material.longRangeStrain() >= 0;
 }
 
 // One unilateral limit |p_i − p_j| ≤ L: only a stretched edge is projected, by the PBD step
