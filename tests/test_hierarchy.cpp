@@ -422,6 +422,40 @@ TEST(Hierarchy, CoarseLevelsCarryTheirParticlesTethers) {
   EXPECT_GT(checked, 0u);
 }
 
+// A strain limit ε (Material::stretchLimit) makes every coarse limit, and the rest length of the
+// path it is compared with, 1 + ε times the rest distance (to the rounding of one float product,
+// 1e-6 relative), and leaves the levels, their edges and the fine level's lengths as they are.
+TEST(Hierarchy, AStrainLimitScalesTheCoarseLimits) {
+  ObjectDef cloth = grid(32);
+  cloth.pins = {0, 31};
+  cloth.material.stretchCompliance = Real(1e-4);
+  World plain;
+  plain.addCloth(cloth);
+  const Real limit = Real(0.05);
+  cloth.material.stretchLimit = limit;
+  World limited;
+  limited.addCloth(cloth);
+  const LevelHierarchies a = build(plain), b = build(limited);
+  ASSERT_EQ(a.objects.size(), 1u);
+  ASSERT_EQ(b.objects.size(), 1u);
+  const ObjectHierarchy &ha = a.objects[0], &hb = b.objects[0];
+  ASSERT_EQ(levelSizes(ha), levelSizes(hb));
+  ASSERT_GE(ha.levels.size(), 2u);
+  EXPECT_EQ(ha.levels[0].restLength, hb.levels[0].restLength);
+  std::size_t checked = 0;
+  for (std::size_t l = 1; l < ha.levels.size(); ++l) {
+    const HierarchyLevel &la = ha.levels[l], &lb = hb.levels[l];
+    ASSERT_EQ(la.edges, lb.edges) << "level " << l;
+    ASSERT_EQ(la.pathRest.size(), la.edges.size());
+    ASSERT_EQ(lb.pathRest.size(), lb.edges.size());
+    for (std::size_t e = 0; e < la.edges.size(); ++e, ++checked) {
+      EXPECT_NEAR(lb.restLength[e], (1 + limit) * la.restLength[e], 1e-6 * lb.restLength[e]);
+      EXPECT_NEAR(lb.pathRest[e], (1 + limit) * la.pathRest[e], 1e-6 * lb.pathRest[e]);
+    }
+  }
+  EXPECT_GT(checked, 0u);
+}
+
 // A straight rope of 200 segments: the ends have one neighbour and stay coarse, and in index order
 // every odd particle has two coarse neighbours and becomes fine, every even one is left with one.
 // Each level halves the chain, (n + 1) / 2, until 26 ≤ 32; each fine particle sits midway between

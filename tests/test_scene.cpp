@@ -196,6 +196,24 @@ TEST(Shapes, TubeIsAnOpenCylinderWithAClosedSeam) {
   EXPECT_THROW(tube(spec), std::invalid_argument);
 }
 
+// `stretch_limit` is read into the material; left out, the material keeps the default (−1: 0
+// when inextensible, none when stretchable).
+TEST(Scene, ReadsAStretchLimit) {
+  const auto limitOf = [](const char* material) {
+    const Scene scene = parseScene(
+        std::string(R"({"objects": [{"type": "cloth", "shape": {"grid": {}}, "material": )") +
+            material + "}]}",
+        "test.json", ".");
+    return scene.objects.at(0).def.material;
+  };
+  const Material limited = limitOf(R"({"stretch_compliance": 1e-4, "stretch_limit": 0.05})");
+  EXPECT_FLOAT_EQ(limited.stretchLimit, 0.05f);
+  EXPECT_FLOAT_EQ(limited.longRangeStrain(), 0.05f);
+  const Material free = limitOf(R"({"stretch_compliance": 1e-4})");
+  EXPECT_LT(free.longRangeStrain(), 0);
+  EXPECT_EQ(limitOf("{}").longRangeStrain(), 0);
+}
+
 TEST(Scene, ReadsATube) {
   const Scene scene = parseScene(R"({"objects": [{"type": "cloth", "shape": {"tube": {
       "center": [0, 1, 0], "axis": [1, 0, 0], "length": 0.6, "radius": 0.2, "radius_top": 0.1,

@@ -126,8 +126,9 @@ struct Material {
   bool twist = false;
   Real twistCompliance = 0;
   // Long-range attachments (Kim, Chentanez and Müller 2012) of inextensible (stretch compliance
-  // 0) cloth and ropes that have pins: each free vertex may not move farther from a pin than its
-  // geodesic distance to it in the rest shape (along the surface). Pins joined by edges form a
+  // 0) or strain-limited (stretchLimit) cloth and ropes that have pins: each free vertex may not
+  // move farther from a pin than its geodesic distance to it in the rest shape (along the
+  // surface), times 1 + the strain limit. Pins joined by edges form a
   // cluster, and a vertex is held by the nearest pin of each of its nearest clusters (up to
   // four), so a cloth held at separate points does not split where the nearest pin changes.
   // A unilateral, hard limit: it stops a pinned cloth from stretching away from its pins when
@@ -140,8 +141,9 @@ struct Material {
   // move apart beyond their rest distance; none for compliant stretch (stretchCompliance > 0),
   // whose stretch under a load has no bound a limit could know in advance, so such a material
   // gets neither tethers nor a cascade. A value ≥ 0 is a strain limit (Provot 1995): it gives
-  // compliant stretch both, elastic up to that strain and hard beyond it, at the cost of the
-  // material's response to loads that would stretch it further.
+  // compliant cloth and ropes both (a solid, which has no tethers, the cascade), elastic up to
+  // that strain and hard beyond it, at the cost of the material's response to loads that would
+  // stretch it further.
   Real stretchLimit = -1;
   // The strain at which this material's long-range limits grip, or a negative value when it has
   // none (stretchLimit's default for compliant stretch).

@@ -1,8 +1,8 @@
 // The multigrid backend's coarse-to-fine cascade (hierarchical position based dynamics, Müller
-// 2008 §4; ARCHITECTURE.md §3): before the fine sweeps of a substep, each inextensible object's
-// coarser levels are swept as unilateral distance limits, coarsest first, and every level's
-// particles that are not on the next coarser one follow their parents' total displacement since
-// the cascade began. Long-range stretch then travels across the object in a few coarse sweeps
+// 2008 §4; ARCHITECTURE.md §3): before the fine sweeps of a substep, each inextensible or
+// strain-limited (Material::stretchLimit) object's coarser levels are swept as unilateral
+// distance limits, coarsest first, and every level's particles that are not on the next coarser
+// one follow their parents' total displacement since the cascade began. Long-range stretch then travels across the object in a few coarse sweeps
 // instead of one ring per fine sweep; the fine sweeps (colored Gauss–Seidel, every family,
 // contacts) then work on a nearly converged shape.
 #pragma once
@@ -21,13 +21,14 @@
 namespace nucleon {
 
 // Runs the cascade on particles.p for every hierarchy of at least two levels whose object is
-// inextensible (stretch compliance 0; a soft object's coarse limits would stiffen it), with
-// sweepsOfLevel(sweepsPerLevel, l) sweeps of coarse level l. Colors of a level run in sequence, the
-// edges of a color in parallel (no two share a particle), prolongation in parallel per particle
-// (on the calling thread after a level small enough to be swept there): the result does not
-// depend on the thread count. While the substep has contacts, the hook is called with the level's
-// particles resting on a sphere collider (where there are any and the level has several sweeps)
-// before the level's sweeps as `hook(context, onSphere, BeforeSweeps)` and between two of them as
+// inextensible (stretch compliance 0) or strain-limited (Material::stretchLimit: its coarse limits
+// are 1 + the limit times their rest lengths; a soft object's limits at rest length would stiffen
+// it), with sweepsOfLevel(sweepsPerLevel, l) sweeps of coarse level l. Colors of a level run in
+// sequence, the edges of a color in parallel (no two share a particle), prolongation in parallel
+// per particle (on the calling thread after a level small enough to be swept there): the result
+// does not depend on the thread count. While the substep has contacts, the hook is called with
+// the level's particles resting on a sphere collider (where there are any and the level has
+// several sweeps) before the level's sweeps as `hook(context, onSphere, BeforeSweeps)` and between two of them as
 // `hook(context, onSphere, BetweenSweeps)`, after the sweeps of every level as `hook(context,
 // level.particles, AfterLevel)`, and after the last prolongation as `hook(context, {},
 // AfterCascade)` (every particle): the solve projects its contacts there, as it does after every
