@@ -128,9 +128,9 @@ struct Material {
   // Long-range attachments (Kim, Chentanez and Müller 2012) of inextensible (stretch compliance
   // 0) or strain-limited (stretchLimit) cloth and ropes that have pins: each free vertex may not
   // move farther from a pin than its geodesic distance to it in the rest shape (along the
-  // surface), times 1 + the strain limit. Pins joined by edges form a
-  // cluster, and a vertex is held by the nearest pin of each of its nearest clusters (up to
-  // four), so a cloth held at separate points does not split where the nearest pin changes.
+  // surface), times 1 + the strain limit. Pins joined by edges form a cluster, and a vertex is
+  // held by the nearest pin of each of its nearest clusters (up to four), so a cloth held at
+  // separate points does not split where the nearest pin changes.
   // A unilateral, hard limit: it stops a pinned cloth from stretching away from its pins when
   // the sweeps are too few to carry its weight, and costs one projection per vertex and cluster
   // held (two for a cloth hung from two corners, one for a pinned row).

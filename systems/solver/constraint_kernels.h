@@ -39,12 +39,10 @@ NUCLEON_KERNEL Real wrapAngle(Real a) {
 // that tension at once as a push (Δλ ≈ −λ): the edge is thrown back out stretched, and a drape
 // with soft compression blew up. With λ = 0 (the first projection of a substep) this is the sign
 // of C. A damped step (γ = τ/h, rate term v = ∇C·(x − x_n)) reaches
-// ((1 + γ) s λ − C − γ v) / ((1 + γ) s + α̃): its side is the sign of that numerator.
-NUCLEON_KERNEL bool belowRest(Real constraint, Real stiffness, Real lambda) {
-  return constraint < stiffness * lambda;
-}
-NUCLEON_KERNEL bool belowRestDamped(Real constraint, Real stiffness, Real lambda, Real gamma,
-                                    Real rate) {
+// ((1 + γ) s λ − C − γ v) / ((1 + γ) s + α̃): its side is the sign of that numerator, which for
+// γ = 0 (and v = 0) is C < s λ exactly, the test the undamped lanes make.
+NUCLEON_KERNEL bool belowRest(Real constraint, Real stiffness, Real lambda, Real gamma = 0,
+                              Real rate = 0) {
   return constraint + gamma * rate < (1 + gamma) * stiffness * lambda;
 }
 }  // namespace kernel_detail
@@ -266,10 +264,10 @@ NUCLEON_KERNEL Real projectEvaluated(Real value, const Vec3* grad, const Vec3* x
   if (terms.gamma > 0)
     for (std::size_t k = 0; k < n; ++k) velocity += grad[k].dot(x[k] - start[k]);
   // The compliance of the side the multiplier ends on (see kernel_detail::belowRest).
-  const bool below = terms.gamma > 0 ? kernel_detail::belowRestDamped(c, stiffness, terms.lambda,
-                                                                      terms.gamma, velocity)
-                                     : kernel_detail::belowRest(c, stiffness, terms.lambda);
-  const Real alphaTilde = below ? terms.alphaTildeBelow : terms.alphaTilde;
+  const Real alphaTilde =
+      kernel_detail::belowRest(c, stiffness, terms.lambda, terms.gamma, velocity)
+          ? terms.alphaTildeBelow
+          : terms.alphaTilde;
   const Real denominator = (1 + terms.gamma) * stiffness + alphaTilde;
   for (std::size_t k = 0; k < n; ++k) dx[k].setZero();
   if (stiffness < kernel_detail::kTiny) return 0;

@@ -2,9 +2,9 @@
 // 2008 §4; ARCHITECTURE.md §3): before the fine sweeps of a substep, each inextensible or
 // strain-limited (Material::stretchLimit) object's coarser levels are swept as unilateral
 // distance limits, coarsest first, and every level's particles that are not on the next coarser
-// one follow their parents' total displacement since the cascade began. Long-range stretch then travels across the object in a few coarse sweeps
-// instead of one ring per fine sweep; the fine sweeps (colored Gauss–Seidel, every family,
-// contacts) then work on a nearly converged shape.
+// one follow their parents' total displacement since the cascade began. Long-range stretch then
+// travels across the object in a few coarse sweeps instead of one ring per fine sweep; the fine
+// sweeps (colored Gauss–Seidel, every family, contacts) then work on a nearly converged shape.
 #pragma once
 
 #include <span>
@@ -28,25 +28,25 @@ namespace nucleon {
 // per particle (on the calling thread after a level small enough to be swept there): the result
 // does not depend on the thread count. While the substep has contacts, the hook is called with
 // the level's particles resting on a sphere collider (where there are any and the level has
-// several sweeps) before the level's sweeps as `hook(context, onSphere, BeforeSweeps)` and between two of them as
-// `hook(context, onSphere, BetweenSweeps)`, after the sweeps of every level as `hook(context,
-// level.particles, AfterLevel)`, and after the last prolongation as `hook(context, {},
-// AfterCascade)` (every particle): the solve projects its contacts there, as it does after every
-// fine sweep round, so that a particle the cascade pulls toward a collider is held by its contact
-// instead of being carried into it. A level's sweeps move only its own particles, and prolongation
-// then overwrites every other particle that moves, so the hook needs to settle only the level's
-// particles (the solve settles all of them after a level while there are primitive contacts, whose
-// projection moves particles of any level; between sweeps it projects the level's collider contacts
-// only). A level particle resting on a static mesh is put back onto that contact's plane between
-// sweeps by the cascade itself. `contacts` are the substep's contacts (none by default).
-// Prolongation leaves a particle with primitive contacts where its contacts put it. A coarse edge
-// whose two particles are held bent, by a sphere collider or by a primitive contact with a particle
-// of inverse mass 0 at rest (a static mesh collider), is swept with a limit that sees the stretch
-// of a curved patch (the chord its path would have at rest length, when that is shorter than the
-// rest distance); one whose two particles rest on the same sphere or static mesh where it curves
-// away between them, with at most the chord of an arc of rest length turning as the surface's
-// normals turn; the others with their rest distance; `scratch` holds those limits and the cascade's
-// start positions. Every coarse step is over-relaxed by `relaxation` (ω in [1, 2):
+// several sweeps) before the level's sweeps as `hook(context, onSphere, BeforeSweeps)` and
+// between two of them as `hook(context, onSphere, BetweenSweeps)`, after the sweeps of every level
+// as `hook(context, level.particles, AfterLevel)`, and after the last prolongation as
+// `hook(context, {}, AfterCascade)` (every particle): the solve projects its contacts there, as it
+// does after every fine sweep round, so that a particle the cascade pulls toward a collider is held
+// by its contact instead of being carried into it. A level's sweeps move only its own particles,
+// and prolongation then overwrites every other particle that moves, so the hook needs to settle
+// only the level's particles (the solve settles all of them after a level while there are primitive
+// contacts, whose projection moves particles of any level; between sweeps it projects the level's
+// collider contacts only). A level particle resting on a static mesh is put back onto that
+// contact's plane between sweeps by the cascade itself. `contacts` are the substep's contacts (none
+// by default). Prolongation leaves a particle with primitive contacts where its contacts put it. A
+// coarse edge whose two particles are held bent, by a sphere collider or by a primitive contact
+// with a particle of inverse mass 0 at rest (a static mesh collider), is swept with a limit that
+// sees the stretch of a curved patch (the chord its path would have at rest length, when that is
+// shorter than the rest distance); one whose two particles rest on the same sphere or static mesh
+// where it curves away between them, with at most the chord of an arc of rest length turning as the
+// surface's normals turn; the others with their rest distance; `scratch` holds those limits and the
+// cascade's start positions. Every coarse step is over-relaxed by `relaxation` (ω in [1, 2):
 // SolverSettings::cascadeRelaxation). Returns the coarse-edge projections and tether projections
 // performed.
 enum class CascadeMoment { BeforeSweeps, BetweenSweeps, AfterLevel, AfterCascade };
