@@ -130,6 +130,95 @@ TEST(DistanceBatch, StretchWithLoadedMassesMatchesScalarKernel) {
   expectBatchMatchesScalar(false, true);
 }
 
+// The Jacobi batch, plain and accelerated, against jacobiOne: the same slots, multipliers and
+// multiplier histories. The fixture mixes hard constraints (every twelfth), whose slots restart
+// one by one, with compliant ones, which carry their multiplier's history and restart slots and
+// history together; the history is random, some of it along the coming step and some against.
+#ifndef NUCLEON_DOUBLE
+void expectJacobiBatchMatchesScalar(bool unilateral, Real carry) {
+  Fixture batched, scalar, fresh;  // fresh: the scalar sweep without history
+  const Real h = Real(1.0 / 60), invH = 1 / h;
+  std::mt19937 random(5);
+  std::uniform_real_distribution<float> unit(-1, 1);
+  for (Fixture* f : {&batched, &scalar, &fresh}) {
+    f->pool.correction.assign(2 * f->pool.size(), Vec3::Zero());
+    f->pool.lambdaMove.assign(f->pool.size(), 0);
+    f->pool.splitInverseMass = f->particles.w;  // each particle in one constraint
+  }
+  for (std::size_t s = 0; s < scalar.pool.correction.size(); ++s)
+    batched.pool.correction[s] = scalar.pool.correction[s] =
+        1e-3f * Vec3(unit(random), unit(random), unit(random));
+  for (std::size_t c = 0; c < scalar.pool.size(); ++c)
+    batched.pool.lambdaMove[c] = scalar.pool.lambdaMove[c] = 1e-3f * unit(random);
+  sweep_detail::JacobiFactors factors;
+  factors.relaxation = 0.9f;
+  factors.step = (1 + carry) * 0.9f;
+  factors.carry = carry;
+  const Index size = static_cast<Index>(scalar.pool.size());
+  auto project = [&](auto kernel) {
+    using Kernel = decltype(kernel);
+    const SweepContext batchedContext{batched.particles, h};
+    const JacobiBatch<2> batch =
+        sweep_detail::jacobiBatchOf<Kernel>(batched.pool, batchedContext, factors, invH);
+    const Index left = projectDistanceJacobiBatches(batch, 0, size);
+    EXPECT_EQ(left, 32u);
+    for (Index c = left; c < size; ++c)
+      sweep_detail::jacobiOne<Kernel>(batched.pool, c, batchedContext, factors, invH);
+    for (Fixture* f : {&scalar, &fresh}) {
+      const SweepContext context{f->particles, h};
+      for (Index c = 0; c < size; ++c)
+        sweep_detail::jacobiOne<Kernel>(f->pool, c, context, factors, invH);
+    }
+  };
+  if (unilateral)
+    project(TetherKernel{});
+  else
+    project(DistanceKernel{});
+  int written = 0, kept = 0, restarted = 0;
+  for (Index c = 0; c < size; ++c) {
+    // FMA contraction and another operation order: a few ulps of the O(1) values.
+    EXPECT_NEAR(batched.pool.lambda[c], scalar.pool.lambda[c], 1e-5) << c;
+    EXPECT_NEAR(batched.pool.lambdaMove[c], scalar.pool.lambdaMove[c], 1e-5) << c;
+    for (Index s : {2 * c, 2 * c + 1}) {
+      EXPECT_LT((batched.pool.correction[s] - scalar.pool.correction[s]).norm(), 1e-6f) << c;
+      written += scalar.pool.correction[s].norm() > 1e-4f;
+    }
+    // A compliant constraint's λ moves by this sweep's step plus the carried history, or by the
+    // step alone where it restarts; a hard one's by the step alone.
+    const bool compliant =
+        scalar.pool.compliance[c] != 0 || scalar.pool.compressionCompliance[c] != 0;
+    const Real step = fresh.pool.lambdaMove[c], move = scalar.pool.lambdaMove[c];
+    EXPECT_NEAR(scalar.pool.lambda[c] - fresh.pool.lambda[c], move - step, 1e-6) << c;
+    if (!compliant || carry == 0) {
+      EXPECT_EQ(move, step) << c;
+    } else if (move != step) {
+      ++kept;
+    } else {
+      ++restarted;
+    }
+  }
+  EXPECT_EQ(batched.particles.p, batched.particles.x);  // Jacobi only writes slots
+  EXPECT_GT(written, 10);
+  if (carry != 0) {
+    EXPECT_GT(kept, 3);  // both branches are exercised
+    EXPECT_GT(restarted, 3);
+  }
+}
+#endif
+
+TEST(DistanceBatch, JacobiMatchesScalarKernelPlainAndAccelerated) {
+#ifdef NUCLEON_DOUBLE
+  GTEST_SKIP() << "the batched distance path is float-only";
+#else
+  if (!distanceBatchesAvailable()) GTEST_SKIP() << "no AVX2/FMA on this CPU";
+  for (bool unilateral : {false, true})
+    for (Real carry : {Real(0), Real(0.6)}) {
+      SCOPED_TRACE(testing::Message() << "tether " << unilateral << ", carry " << carry);
+      expectJacobiBatchMatchesScalar(unilateral, carry);
+    }
+#endif
+}
+
 // Without compliances and multipliers (the multigrid cascade's coarse limits) the batch takes the
 // plain PBD step of an upper limit, written out here: a stretched edge (C = |d| − L > 0) moves
 // its ends by ∓ ω w C d / ((w_a + w_b) |d|), and nothing else moves. ω is the cascade's

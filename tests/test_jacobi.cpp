@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -185,6 +186,79 @@ TEST(JacobiSheetRelaxation, SpeedsUpAHangingSheet) {
   };
   const double unrelaxed = hang(1), relaxed = hang(Real(1.7));
   EXPECT_LT(relaxed, 0.75 * unrelaxed) << unrelaxed << " " << relaxed;
+}
+
+// A compliant rope laid out at the static extension of its springs, at rest, stays there: with
+// x̃ = x + h² g each step's solution is x itself, with λ_i = −h² T_i (T_i the weight below
+// segment i). The accelerated Jacobi sweeps reach it only if λ books every move the slots make,
+// carried part included (the multiplier history of constraint_sweeps.h): a λ short of the moves
+// makes the springs read as stiffer than they are, and the rope climbs. 20 segments, 1 kg, α
+// 1e-3 m/N (the top segment 20% longer than at rest, the rope 9.8 cm), 100 sweeps of one substep
+// per step, two seconds. Measured: the lowest vertex 0.0007 mm from its place; with λ booking
+// only ω γ Δλ, as for hard constraints, it ended 68 mm high (the springs read as three times
+// stiffer). Unaccelerated (ρ = 0) it ends 1.0 mm low: 100 plain sweeps do not converge the
+// chain. The bound, 0.5 mm, is 0.5% of the rope's extension.
+TEST(JacobiAcceleration, ACompliantRopeAtItsStaticExtensionStaysThere) {
+  const int n = 20;
+  const double mass = 1, alpha = 1e-3, g = 9.81;
+  auto hang = [&](Real rho) {
+    ObjectDef rope = polylineRope(Vec3(0, 1, 0), Vec3(0, 0, 0), n);
+    rope.pins = {0};
+    rope.material.mass = Real(mass);
+    rope.material.stretchCompliance = rope.material.compressionCompliance = Real(alpha);
+    World world;
+    SolverSettings settings = test::solverSettings(SolverKind::Jacobi, 100, 1);
+    settings.chebyshevRho = rho;
+    world.setSolver(settings);
+    const ObjectId id = world.addRope(rope);
+    // Segment i (from the top) carries everything below it: the lumped masses M/n per interior
+    // vertex and M/2n at the free end.
+    std::vector<Vec3> shape(n + 1);
+    double y = 1;
+    shape[0] = Vec3(0, 1, 0);
+    for (int i = 1; i <= n; ++i) {
+      const double below = mass / (2 * n) + mass * (n - i) / n;
+      y -= 1.0 / n + alpha * g * below;
+      shape[i] = Vec3(0, Real(y), 0);
+    }
+    world.setPositions(id, shape);
+    test::simulate(world, 120);
+    EXPECT_EQ(world.recoveries().total(), 0u);
+    return std::make_pair(double(world.positions(id)[n].y()), y);
+  };
+  const auto [accelerated, expected] = hang(kChebyshevSpectralRadius);
+  EXPECT_NEAR(accelerated, expected, 5e-4) << "expected " << expected;
+  const auto [plain, same] = hang(0);
+  EXPECT_GT(std::abs(plain - same), std::abs(accelerated - expected)) << plain << " " << same;
+}
+
+// The same acceleration takes a compliant cloth as far as a hard one: the bundled 64² cloth
+// dropped on a sphere (Jacobi × 10), stretch and compression compliance 1e-7 m/N (α̃ = α/h² is
+// about 1/50,000 of a particle's inverse mass). Measured mean / p99 strain in the last frame:
+// 14.5% / 49% with the acceleration, no repair (the hard cloth's vertex-centric sweep: 11.2% /
+// 70%); 38% / 139% without it (ρ = 0, as compliant constraints ran before), with an edge 24
+// times its length in the worst frame and 4 missed-contact repairs. Bounds: mean below 20%, p99
+// below 60%, and the plain run at least 1.5 times the mean.
+TEST(JacobiAcceleration, ACompliantClothConvergesAsFarAsAHardOne) {
+  auto drop = [](Real rho, bool clean) {
+    Scene scene = loadScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/cloth_sphere.json");
+    scene.solver.kind = SolverKind::Jacobi;
+    scene.solver.chebyshevRho = rho;
+    for (SceneObject& object : scene.objects)
+      object.def.material.stretchCompliance = object.def.material.compressionCompliance =
+          Real(1e-7);
+    World world = buildWorld(scene);
+    test::simulate(world, scene.frames, 1.0 / scene.fps);
+    if (clean) {
+      EXPECT_EQ(world.recoveries().total(), 0u);
+    }
+    EXPECT_EQ(world.measure().nanCount, 0u);
+    return world.measure();
+  };
+  const Measures accelerated = drop(kChebyshevSpectralRadius, true), plain = drop(0, false);
+  EXPECT_LT(accelerated.meanStrain, 0.20);
+  EXPECT_LT(accelerated.strainP99, 0.60);
+  EXPECT_GT(plain.meanStrain, 1.5 * accelerated.meanStrain);
 }
 
 }  // namespace

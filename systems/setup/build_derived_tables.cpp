@@ -54,6 +54,7 @@ void buildDerivedTables(ConstraintPools& pools, const ParticlePool& particles, S
       pool.splitInverseMass[i] =
           particles.w[i] * Real(pool.incidence.offset[i + 1] - pool.incidence.offset[i]);
     pool.correction.assign(n * pool.size(), Vec3::Zero());
+    pool.lambdaMove.assign(pool.size(), 0);
     pool.lambda.assign(pool.size(), 0);
     if constexpr (!std::is_same_v<Pool, UserConstraintPool>) {
       constexpr std::size_t arity = Pool::kArity;

@@ -48,15 +48,20 @@ struct InPlaceBatch : BatchColumns<N> {
 // constraint_sweeps.h applied to the slots:
 //   u = ω γ Δx + (ω − 1) u_prev  for hard constraints when `carry` ≠ 0 (a slot whose history
 //   opposes the new step restarts),  u = γ Δx otherwise,
-// and λ += (ω γ or γ) Δλ alike. Constraints may share particles: nothing is written to them.
+// and λ += (ω γ or γ) Δλ alike. Distance batches accelerate compliant constraints as well, with
+// their multiplier's history (`lambdaMove`, δλ of the last sweep; constraint_sweeps.h): a
+// compliant constraint restarts its slots and that history together, where Δλ opposes it, and
+// λ += δλ = ω γ Δλ + (ω − 1) δλ_prev. Constraints may share particles: nothing is written to
+// them.
 template <std::size_t N>
 struct JacobiBatch : BatchColumns<N> {
   const Vec3* positions = nullptr;
   const Real* splitInverseMass = nullptr;  // w_i times the family's constraint count on i
   Vec3* correction = nullptr;
-  Real relaxation = 1;  // γ
-  Real step = 1;        // ω γ
-  Real carry = 0;       // ω − 1 (0: plain sweep, the old slots are not read)
+  Real relaxation = 1;         // γ
+  Real step = 1;               // ω γ
+  Real carry = 0;              // ω − 1 (0: plain sweep, the old slots are not read)
+  Real* lambdaMove = nullptr;  // distance batches: δλ per constraint (ConstraintPool::lambdaMove)
 };
 
 }  // namespace nucleon

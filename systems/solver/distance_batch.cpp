@@ -99,7 +99,6 @@ using distance_lanes::multiplierScale;
   const __m256 carry = _mm256_set1_ps(b.carry);
   const bool accelerated = b.carry != 0;
   const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
-  alignas(32) float ex[8], ey[8], ez[8], ga[8], gb[8], keep[8];
   Index k = begin;
   for (; k + 8 <= end; k += 8) {
     const auto* pairs = reinterpret_cast<const __m256i*>(b.particles + k);
@@ -122,31 +121,59 @@ using distance_lanes::multiplierScale;
     const __m256 scale =
         multiplierScale(length, _mm256_loadu_ps(b.rest + k), stretchCompliance,
                         compressionCompliance, lambda, wa, wb, inverseH2, b.unilateral);
-    // Hard constraints (both compliances 0) are accelerated on the accelerated sweeps.
+    // Every constraint is accelerated on the accelerated sweeps (the batches take undamped pools
+    // only): a hard one (both compliances 0) with a restart per slot, a compliant one with its
+    // multiplier's history and a restart per constraint (constraint_sweeps.h).
     __m256 hard = _mm256_and_ps(_mm256_cmp_ps(stretchCompliance, zero, _CMP_EQ_OQ),
                                 _mm256_cmp_ps(compressionCompliance, zero, _CMP_EQ_OQ));
-    if (!accelerated) hard = zero;
-    const __m256 factor = _mm256_blendv_ps(relaxation, step, hard);
-    _mm256_storeu_ps(b.lambda + k, _mm256_fmadd_ps(_mm256_mul_ps(factor, scale), length, lambda));
+    const __m256 factor = accelerated ? step : relaxation;
     const __m256 scaled = _mm256_mul_ps(factor, scale);
-    _mm256_store_ps(ga, _mm256_mul_ps(wa, scaled));
-    _mm256_store_ps(gb, _mm256_mul_ps(wb, scaled));
-    _mm256_store_ps(keep, _mm256_and_ps(carry, hard));
-    _mm256_store_ps(ex, dx);
-    _mm256_store_ps(ey, dy);
-    _mm256_store_ps(ez, dz);
-    Vec3* slot = b.correction + 2 * k;
-    for (int j = 0; j < 8; ++j, slot += 2) {
-      const Vec3 e(ex[j], ey[j], ez[j]);
-      if (keep[j] != 0) {
-        // Adaptive restart per slot, as in the scalar path (constraint_sweeps.h).
-        const Vec3 ua = ga[j] * e, ub = -gb[j] * e;
-        slot[0] = ua + (ua.dot(slot[0]) >= 0 ? keep[j] : 0.0f) * slot[0];
-        slot[1] = ub + (ub.dot(slot[1]) >= 0 ? keep[j] : 0.0f) * slot[1];
-      } else {
-        slot[0] = ga[j] * e;
-        slot[1] = -gb[j] * e;
+    const __m256 stepLambda = _mm256_mul_ps(scaled, length);
+    __m256 carried = zero;  // the compliant lanes' carry, 0 where they restart
+    if (accelerated) {
+      const __m256 previous = _mm256_loadu_ps(b.lambdaMove + k);
+      const __m256 along = _mm256_cmp_ps(_mm256_mul_ps(stepLambda, previous), zero, _CMP_GE_OQ);
+      carried = _mm256_andnot_ps(hard, _mm256_and_ps(along, carry));
+      const __m256 move = _mm256_fmadd_ps(carried, previous, stepLambda);
+      _mm256_storeu_ps(b.lambda + k,
+                       _mm256_blendv_ps(_mm256_add_ps(lambda, move),
+                                        _mm256_fmadd_ps(scaled, length, lambda), hard));
+      _mm256_storeu_ps(b.lambdaMove + k, move);
+    } else {
+      hard = zero;
+      _mm256_storeu_ps(b.lambda + k, _mm256_fmadd_ps(scaled, length, lambda));
+      _mm256_storeu_ps(b.lambdaMove + k, stepLambda);
+    }
+    // The slots u_a = g_a d and u_b = −g_b d, plus the carried history where it is kept, in
+    // lanes; the same operations as the scalar jacobiOne, component by component.
+    const __m256 ga = _mm256_mul_ps(wa, scaled);
+    const __m256 gb = _mm256_xor_ps(_mm256_set1_ps(-0.0f), _mm256_mul_ps(wb, scaled));
+    point_lanes::Lanes3 u[2] = {
+        {_mm256_mul_ps(ga, dx), _mm256_mul_ps(ga, dy), _mm256_mul_ps(ga, dz)},
+        {_mm256_mul_ps(gb, dx), _mm256_mul_ps(gb, dy), _mm256_mul_ps(gb, dz)}};
+    const __m256 keep = _mm256_and_ps(carry, hard);
+    Vec3* slot = b.correction + 2 * std::size_t{k};
+    if (_mm256_movemask_ps(_mm256_cmp_ps(_mm256_or_ps(keep, carried), zero, _CMP_NEQ_OQ)) != 0) {
+      for (int e = 0; e < 2; ++e) {
+        __m128 row[8];
+        for (int j = 0; j < 8; ++j) row[j] = point_lanes::loadSlot(slot[2 * j + e]);
+        const point_lanes::Lanes3 old = point_lanes::transposeRows(row);
+        // Adaptive restart per slot of a hard constraint, as in the scalar path
+        // (constraint_sweeps.h): u · u_prev = x x' + (y y' + z z'), Eigen's order for a Vec3.
+        const __m256 along = _mm256_add_ps(
+            _mm256_mul_ps(u[e].x, old.x),
+            _mm256_add_ps(_mm256_mul_ps(u[e].y, old.y), _mm256_mul_ps(u[e].z, old.z)));
+        const __m256 kept =
+            _mm256_or_ps(_mm256_and_ps(keep, _mm256_cmp_ps(along, zero, _CMP_GE_OQ)), carried);
+        u[e] = {_mm256_add_ps(u[e].x, _mm256_mul_ps(kept, old.x)),
+                _mm256_add_ps(u[e].y, _mm256_mul_ps(kept, old.y)),
+                _mm256_add_ps(u[e].z, _mm256_mul_ps(kept, old.z))};
       }
+    }
+    for (int e = 0; e < 2; ++e) {
+      __m128 row[8];
+      point_lanes::transposeLanes(u[e], row);
+      for (int j = 0; j < 8; ++j) point_lanes::storeSlot(slot[2 * j + e], row[j]);
     }
   }
   return k;
