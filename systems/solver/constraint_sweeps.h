@@ -205,18 +205,20 @@ NUCLEON_KERNEL bool acceleratable(const Pool& pool, std::size_t c) {
 }
 
 // The kernels whose compliant constraints are accelerated with their multiplier's history
-// (above): the distance family. The angular families stay plain when compliant: their steps
-// swing with the angles' nonlinearity, and carried along they grew (a bent, sheared 24² cloth's
-// angle constraints moved particles by metres in five accelerated sweeps).
+// (above): the distance family, and a registered family that asks for acceleration unless its C
+// is an angle. The angular families stay plain when compliant: their steps swing with the
+// angles' nonlinearity, and carried along they grew (a bent, sheared 24² cloth's angle
+// constraints moved particles by metres in five accelerated sweeps).
 template <class Kernel>
-constexpr bool kCarriesMultiplier = std::is_base_of_v<DistanceKernel, Kernel>;
+constexpr bool kCarriesMultiplier =
+    std::is_base_of_v<DistanceKernel, Kernel> || std::is_same_v<UserKernel, Kernel>;
 
 // A compliant, undamped constraint of such a kernel.
 template <class Kernel, class Pool>
 NUCLEON_KERNEL bool carriesMultiplier(const Pool& pool, std::size_t c) {
   if constexpr (!kCarriesMultiplier<Kernel>) return false;
   if constexpr (requires { pool.family.jacobiAcceleration; })
-    if (!pool.family.jacobiAcceleration) return false;
+    if (!pool.family.jacobiAcceleration || pool.family.angular) return false;
   return pool.damping[c] == 0 && (pool.compliance[c] != 0 || pool.compressionCompliance[c] != 0);
 }
 
