@@ -55,13 +55,14 @@ struct UserConstraintFamilyDef {
   // ‖∇_k C‖ = 1 for every particle wherever C is differentiable (a distance): the solver takes
   // Σ_k w_k for the denominator instead of the norms, and a zero ∇_0 C as degenerate.
   bool unitGradients = false;
-  // Jacobi: accelerate the family's undamped constraints with the Chebyshev extrapolation the
-  // built-in families take (SolverSettings::chebyshevRho): the hard ones, and unless `angular`,
-  // the compliant ones with their multiplier's history, as the built-in distance family's
-  // (ARCHITECTURE.md §3, jacobi). Off by default: the spectral radius estimate is tuned for
-  // stretch, and extrapolation against a constraint that converges faster than that (a
-  // constraint on one particle is met by one projection) was seen to diverge. While a world holds constraints of a family with this off, the Jacobi sweeps of
-  // every family run plain (no Chebyshev acceleration): safe, and slower to converge.
+  // Jacobi: accelerate the family's constraints with the Chebyshev extrapolation the built-in
+  // families take (SolverSettings::chebyshevRho): the hard, undamped ones, and unless `angular`,
+  // the compliant or damped ones with their multiplier's history, as the built-in distance
+  // family's (ARCHITECTURE.md §3, jacobi). Off by default: the spectral radius estimate is tuned
+  // for stretch, and extrapolation against a constraint that converges faster than that (a
+  // constraint on one particle is met by one projection) was seen to diverge. While a world
+  // holds constraints of a family with this off, the Jacobi sweeps of every family run plain (no
+  // Chebyshev acceleration): safe, and slower to converge.
   bool jacobiAcceleration = false;
 };
 

@@ -176,16 +176,17 @@ void solveGaussSeidel(Pool& pool, const SweepContext& context) {
 //   u_c = ω γ Δx_c + (ω − 1) u_c,prev,
 // the gather averaging u over the particle's slots. A hard constraint's λ_c books the ω γ Δλ_c
 // part of the move but not the carried (ω − 1) u_prev part: its λ enters no projection (the
-// −α̃λ term vanishes). A compliant constraint reads λ_c, so λ_c must account for every move the
-// slots make (x − x̃ = M⁻¹ ∇Cᵀ λ, Macklin et al. 2016, eq. 9); it keeps the same recurrence in
-// its multiplier, the step of the last sweep with its carried part,
+// −α̃λ term vanishes). A compliant or damped constraint reads λ_c, so λ_c must account for every
+// move the slots make (x − x̃ = M⁻¹ ∇Cᵀ λ, Macklin et al. 2016, eq. 9); it keeps the same
+// recurrence in its multiplier, the step of the last sweep with its carried part,
 //   δλ_c = ω γ Δλ_c + (ω − 1) δλ_c,prev,  λ_c += δλ_c,
-// and restarts slots and multiplier together, when Δλ_c opposes δλ_c,prev. Unaccelerated, a
-// compliant cloth stayed far less converged than a hard one (the 64² cloth_sphere under Jacobi
-// × 10: mean strain 44% at compliance 10⁻⁹ against 11%). This is for the distance family
-// (kCarriesMultiplier); compliant angular constraints and damped constraints are not
-// accelerated (a damped step reads the velocity, which the carried move does not enter). A
-// constraint the object filter leaves out writes zero and drops its history.
+// and restarts slots and multiplier together, when Δλ_c opposes δλ_c,prev. The damping term
+// reads ∇C · (p − x), which the carried moves enter as any other. Unaccelerated, a compliant
+// cloth stayed far less converged than a hard one (the 64² cloth_sphere under Jacobi × 10: mean
+// strain 44% at compliance 10⁻⁹ against 11%), and a damped one further still (74% at τ = 5 ms,
+// an edge 23 times its length). This is for the distance family (kCarriesMultiplier); compliant
+// or damped angular constraints run plain. A constraint the object filter leaves out writes zero
+// and drops its history.
 //
 // Pools of hard, undamped distance constraints (the common inextensible cloth) take the
 // vertex-centric form of the same sweep instead (jacobi_vertex.h): each particle computes its
@@ -204,22 +205,22 @@ NUCLEON_KERNEL bool acceleratable(const Pool& pool, std::size_t c) {
   return pool.compliance[c] == 0 && pool.compressionCompliance[c] == 0 && pool.damping[c] == 0;
 }
 
-// The kernels whose compliant constraints are accelerated with their multiplier's history
-// (above): the distance family, and a registered family that asks for acceleration unless its C
-// is an angle. The angular families stay plain when compliant: their steps swing with the
-// angles' nonlinearity, and carried along they grew (a bent, sheared 24² cloth's angle
+// The kernels whose compliant and damped constraints are accelerated with their multiplier's
+// history (above): the distance family, and a registered family that asks for acceleration
+// unless its C is an angle. The angular families stay plain when compliant: their steps swing
+// with the angles' nonlinearity, and carried along they grew (a bent, sheared 24² cloth's angle
 // constraints moved particles by metres in five accelerated sweeps).
 template <class Kernel>
 constexpr bool kCarriesMultiplier =
     std::is_base_of_v<DistanceKernel, Kernel> || std::is_same_v<UserKernel, Kernel>;
 
-// A compliant, undamped constraint of such a kernel.
+// A compliant or damped constraint of such a kernel.
 template <class Kernel, class Pool>
 NUCLEON_KERNEL bool carriesMultiplier(const Pool& pool, std::size_t c) {
   if constexpr (!kCarriesMultiplier<Kernel>) return false;
   if constexpr (requires { pool.family.jacobiAcceleration; })
     if (!pool.family.jacobiAcceleration || pool.family.angular) return false;
-  return pool.damping[c] == 0 && (pool.compliance[c] != 0 || pool.compressionCompliance[c] != 0);
+  return pool.damping[c] != 0 || pool.compliance[c] != 0 || pool.compressionCompliance[c] != 0;
 }
 
 // The per-sweep factors of the Jacobi update: γ for unaccelerated constraints, ω γ and ω − 1 for
