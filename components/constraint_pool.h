@@ -48,8 +48,9 @@ struct ConstraintSolveState {
   ParticleIncidence incidence;
   ConstraintColoring coloring;
   std::vector<Vec3> correction;  // Jacobi scratch, arity per constraint
-  // Jacobi: each constraint's multiplier step in the last sweep, carried part included (the
-  // Chebyshev history of a compliant constraint's λ, constraint_sweeps.h).
+  // Jacobi: each constraint's multiplier step in the last sweep; for a compliant or damped
+  // constraint the carried part included (the Chebyshev history of its λ, constraint_sweeps.h).
+  // Distance families and registered ones only.
   std::vector<Real> lambdaMove;
   // Jacobi mass splitting: per particle, w_i times the number of this pool's constraints on i.
   std::vector<Real> splitInverseMass;

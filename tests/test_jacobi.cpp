@@ -2,6 +2,7 @@
 // jacobi_chebyshev.h). Convergence against colored Gauss–Seidel, determinism across thread
 // counts, a free cloth on a sphere, and the validation of its setting.
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -97,6 +98,27 @@ TEST(JacobiDeterminism, SamePositionsForOneAndTwoThreads) {
   ASSERT_EQ(positions[0].size(), positions[1].size());
   for (std::size_t i = 0; i < positions[0].size(); ++i)
     ASSERT_EQ(positions[0][i], positions[1][i]) << "particle " << i;
+}
+
+// The same with compliant and damped constraints, whose multipliers carry their history
+// (constraint_sweeps.h): histories per constraint, in blocks of eight from constraint 0. A
+// stretchable, damped cloth dropped on a sphere, 30 frames.
+TEST(JacobiDeterminism, CompliantAndDampedClothIsTheSameForOneAndTwoThreads) {
+  std::uint64_t hash[2] = {};
+  for (int threads : {1, 2}) {
+    Scene scene = loadScene(std::string(NUCLEON_ASSETS_DIR) + "/scenes/cloth_sphere.json");
+    scene.solver.kind = SolverKind::Jacobi;
+    scene.threads = threads;
+    for (SceneObject& object : scene.objects) {
+      object.def.material.stretchCompliance = Real(1e-6);
+      object.def.material.damping = Real(0.005);
+    }
+    World world = buildWorld(scene);
+    test::simulate(world, 30, 1.0 / scene.fps);
+    EXPECT_EQ(world.recoveries().total(), 0u);
+    hash[threads - 1] = world.stateHash();
+  }
+  EXPECT_EQ(hash[0], hash[1]);
 }
 
 // A free 64×64 cloth dropped on a sphere (cloth_sphere) under jacobi: finite, no repairs, and it
@@ -239,10 +261,10 @@ TEST(JacobiAcceleration, ACompliantRopeAtItsStaticExtensionStaysThere) {
 
 // The same acceleration takes a compliant cloth as far as a hard one: the bundled 64² cloth
 // dropped on a sphere (Jacobi × 10), stretch and compression compliance 1e-7 m/N (α̃ = α/h² is
-// about 1/50,000 of a particle's inverse mass). Measured mean / p99 strain in the last frame:
-// 14.5% / 49% with the acceleration, no repair (the hard cloth's vertex-centric sweep: 11.2% /
-// 70%); 38% / 139% without it (ρ = 0, as compliant constraints ran before), with an edge 24
-// times its length in the worst frame and 4 missed-contact repairs. Bounds: mean below 20%, p99
+// about 10⁻⁷ of a particle's inverse mass: nearly hard). Measured mean / p99 strain in the last
+// frame: 14.5% / 49% with the acceleration, no repair (the hard cloth's vertex-centric sweep:
+// 11.2% / 70%); 38% / 139% without it (ρ = 0, as compliant constraints ran before), with an edge
+// 25 times its length in the worst frame and 4 missed-contact repairs. Bounds: mean below 20%, p99
 // below 60%, and the plain run at least 1.5 times the mean. A hard cloth with Rayleigh damping
 // τ = 5 ms: 17.4% / 77% accelerated, no repair; 74% / 560% plain, an edge 24 times its length
 // and one repair. Bounds: mean below 25%, p99 below 100%, plain at least twice the mean.

@@ -174,19 +174,20 @@ void solveGaussSeidel(Pool& pool, const SweepContext& context) {
 //
 // On top of it, Chebyshev acceleration (jacobi_chebyshev.h): constraint c's slot becomes
 //   u_c = ω γ Δx_c + (ω − 1) u_c,prev,
-// the gather averaging u over the particle's slots. A hard constraint's λ_c books the ω γ Δλ_c
-// part of the move but not the carried (ω − 1) u_prev part: its λ enters no projection (the
-// −α̃λ term vanishes). A compliant or damped constraint reads λ_c, so λ_c must account for every
-// move the slots make (x − x̃ = M⁻¹ ∇Cᵀ λ, Macklin et al. 2016, eq. 9); it keeps the same
-// recurrence in its multiplier, the step of the last sweep with its carried part,
+// the gather averaging u over the particle's slots. A hard, undamped constraint's λ_c books the
+// ω γ Δλ_c part of the move but not the carried (ω − 1) u_prev part: its λ enters no projection
+// (the −α̃λ term vanishes). A compliant constraint reads λ_c, so λ_c must account for every move
+// the slots make (x − x̃ = M⁻¹ ∇Cᵀ λ, Macklin et al. 2016, eq. 9); it keeps the same recurrence
+// in its multiplier, the step of the last sweep with its carried part,
 //   δλ_c = ω γ Δλ_c + (ω − 1) δλ_c,prev,  λ_c += δλ_c,
-// and restarts slots and multiplier together, when Δλ_c opposes δλ_c,prev. The damping term
-// reads ∇C · (p − x), which the carried moves enter as any other. Unaccelerated, a compliant
-// cloth stayed far less converged than a hard one (the 64² cloth_sphere under Jacobi × 10: mean
-// strain 44% at compliance 10⁻⁹ against 11%), and a damped one further still (74% at τ = 5 ms,
-// an edge 23 times its length). This is for the distance family (kCarriesMultiplier); compliant
-// or damped angular constraints run plain. A constraint the object filter leaves out writes zero
-// and drops its history.
+// and restarts slots and multiplier together, when Δλ_c opposes δλ_c,prev. A damped constraint
+// takes the same rule (its damping term reads ∇C · (p − x), which the carried moves enter as any
+// other). Unaccelerated, a compliant cloth stayed far less converged than a hard one (the 64²
+// cloth_sphere under Jacobi × 10: mean strain 44% at compliance 10⁻⁹ against 11%), and a damped
+// one further still (74% at τ = 5 ms, an edge 24 times its length). This is for the distance
+// family and the registered families that ask for it (kCarriesMultiplier); compliant or damped
+// angular constraints run plain. A constraint the object filter leaves out writes zero and drops
+// its history.
 //
 // Pools of hard, undamped distance constraints (the common inextensible cloth) take the
 // vertex-centric form of the same sweep instead (jacobi_vertex.h): each particle computes its
