@@ -10,6 +10,7 @@
 // particle forms color k) without a table.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "nucleon/types.h"
@@ -29,6 +30,11 @@ struct ContactPool {
   // Scratch of the projection in lanes (collider_contact_lanes.h): each contact's particle's new
   // position, written back by particle after the lanes.
   std::vector<Vec3> moved;
+  // Scratch of the solve (systems/solver/supported_particles.h): the particles a pressed,
+  // frictional contact with a collider or a kinematic body supports in this substep, and per
+  // particle whether it is one.
+  std::vector<Index> supportedParticles;
+  std::vector<std::uint8_t> supportedMark;
 
   // Static (set with the derived tables): per particle, how much farther than its own motion it
   // is looked for within a collider's reach; empty when none is. A liquid particle's is the kernel

@@ -515,6 +515,7 @@ int runScene(const std::vector<std::string>& args, std::ostream& out, std::ostre
         {"incremental_broad_phases", c.incrementalBroadPhases},
         {"solve_redetections", c.solveRedetections},
         {"collider_redetections", c.colliderRedetections},
+        {"supported_particles", c.supportedParticles},
         {"candidate_pairs", c.candidatePairs},
         {"contacts", c.contacts},
         {"clamped_particles", c.clampedParticles},

@@ -790,7 +790,7 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
     s.allowOnly({"type", "iterations", "substeps", "relaxation", "sheet_relaxation",
                  "chebyshev_rho", "sweeps_per_level", "cascade_every", "cascade_relaxation",
                  "smoother", "schedule", "max_kinematic_travel", "max_impact_travel",
-                 "max_substeps"});
+                 "max_substeps", "supported_inverse_mass_scale"});
     const std::string type = s.string("type", toString(scene.solver.kind));
     if (!parseSolverKind(type, scene.solver.kind))
       s.fail(s.at("type"), "unknown solver '" + type + "'");
@@ -809,6 +809,8 @@ Scene parseScene(const std::string& text, const std::string& label, const std::s
         static_cast<Real>(s.number("sheet_relaxation", scene.solver.sheetRelaxation, 0.01, 1.99));
     scene.solver.chebyshevRho =
         static_cast<Real>(s.number("chebyshev_rho", scene.solver.chebyshevRho, 0, 0.9999));
+    scene.solver.supportedInverseMassScale = static_cast<Real>(
+        s.number("supported_inverse_mass_scale", scene.solver.supportedInverseMassScale, 0.001, 1));
     if (s.has("sweeps_per_level")) scene.solver.sweepsPerLevel = s.levelSweeps("sweeps_per_level");
     scene.solver.cascadeEvery = s.integer("cascade_every", scene.solver.cascadeEvery, 0, 100000);
     scene.solver.cascadeRelaxation =

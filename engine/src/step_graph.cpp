@@ -188,6 +188,7 @@ void StepGraph::runStage(int stage) {
       report.solveRedetections += solve.redetections;
       report.incrementalBroadPhases += solve.incrementalRedetections;
       report.colliderRedetections += solve.colliderRedetections;
+      report.supportedParticles += solve.supportedParticles;
       report.crossings += crossing.crossings;
       report.stoppedParticles += crossing.stopped;
       report.carriedParticles += crossing.carried;

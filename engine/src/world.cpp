@@ -586,6 +586,10 @@ void World::setSolver(const SolverSettings& settings) {
   require(std::isfinite(settings.chebyshevRho) && settings.chebyshevRho >= 0 &&
               settings.chebyshevRho <= Real(0.9999),
           "chebyshev_rho must be in [0, 0.9999]");
+  require(std::isfinite(settings.supportedInverseMassScale) &&
+              settings.supportedInverseMassScale >= Real(0.001) &&
+              settings.supportedInverseMassScale <= 1,
+          "supported_inverse_mass_scale must be in [0.001, 1]");
   validateSchedule(settings.schedule, "solver schedule", impl_->state.constraints.familyCount());
   require(settings.sweepsPerLevel.size() <= 64, "at most 64 sweeps-per-level values");
   for (int sweeps : settings.sweepsPerLevel)

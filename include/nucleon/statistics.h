@@ -78,9 +78,14 @@ struct CollisionReport {
   // Refreshes and re-detections that found again only the pairs of the primitives whose particles
   // had left their bounds (few of them), rather than every pair.
   std::uint64_t incrementalBroadPhases = 0;
-  // Collider contact pools refilled after the multigrid cascade had carried a particle without
-  // a contact within a collider's reach (particle_contacts.h, detectContacts).
+  // Collider contact pools refilled after the multigrid cascade, or the sweeps that weighed
+  // supported particles, had carried a particle without a contact within a collider's reach
+  // (particle_contacts.h, addReachedContacts).
   std::uint64_t colliderRedetections = 0;
+  // Particles a pressed contact with friction supported in a substep, summed over the substeps:
+  // their constraints were reweighed in the Gauss–Seidel sweeps
+  // (SolverSettings::supportedInverseMassScale).
+  std::uint64_t supportedParticles = 0;
   std::uint64_t candidatePairs = 0;    // broad-phase pairs, summed over substeps
   std::uint64_t contacts = 0;          // primitive contacts made, summed over substeps
   std::uint64_t clampedParticles = 0;  // particles held within their broad-phase bounds

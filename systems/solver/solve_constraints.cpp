@@ -14,6 +14,7 @@
 #include "systems/solver/multigrid_cascade.h"
 #include "systems/solver/pressure.h"
 #include "systems/solver/shape_matching.h"
+#include "systems/solver/supported_particles.h"
 #include "systems/solver/tether_sweep.h"
 
 namespace nucleon {
@@ -24,6 +25,7 @@ SolveSettings solveSettingsOf(const SolverSettings& solver) {
   settings.relaxation = solver.relaxation;
   settings.chebyshevRho = solver.chebyshevRho;
   settings.sheetRelaxation = solver.sheetRelaxation;
+  settings.supportedInverseMassScale = solver.supportedInverseMassScale;
   settings.optimizedPaths = solver.optimizedPaths;
   settings.cascade =
       solver.kind == SolverKind::Multigrid && sweepsOfLevel(solver.sweepsPerLevel, 1) > 0;
@@ -187,7 +189,7 @@ void sweepPinned(SolvePools& pools, const SolveSettings& settings, const Substep
 
 // The fail-safe holds the free particles of a pair crossing a body without free particles (a
 // collider, a pinned group) to that body's rigid motion, but leaves their neighbours where the
-// sweeps put them, which assumed the held ones would move too: their edges stretch. Where the
+// sweeps put them, which assumed the supported ones would move too: their edges stretch. Where the
 // same hold comes back substep after substep (a cloth sliding down off a needle's tip, held at
 // the tip), the stretch grows with every one: edges at five times their rest length within a few
 // frames. The substep's sweeps run once more with those particles pinned to where the body took
@@ -195,8 +197,8 @@ void sweepPinned(SolvePools& pools, const SolveSettings& settings, const Substep
 // cloth on a needle at 3.6 times); the next fail-safe pass checks the motion they leave. The
 // particles of impact zones are not pinned: a zone keeps its momentum, and pinning it would
 // hand its neighbours' momentum to nothing. Returns whether any particle was pinned.
-bool relaxAroundHeldParticles(SolvePools& pools, const SolveSettings& settings,
-                              const SubstepContext& context) {
+bool relaxAroundSupportedParticles(SolvePools& pools, const SolveSettings& settings,
+                                   const SubstepContext& context) {
   PrimitiveContactPool& contacts = pools.primitiveContacts;
   ParticlePool& particles = pools.particles;
   contacts.held.clear();
@@ -256,8 +258,8 @@ void finishPrimitiveContacts(SolvePools& pools, const SolveSettings& settings,
     report.crossing.unresolved = crossing.unresolved;
     // After the first pass only, and only where it carried particles with a body (impact zones
     // alone pin nothing): the later passes check what it and the sweeps left.
-    relaxed =
-        crossing.carried > 0 && pass == 0 && relaxAroundHeldParticles(pools, settings, context);
+    relaxed = crossing.carried > 0 && pass == 0 &&
+              relaxAroundSupportedParticles(pools, settings, context);
     if (relaxed) ++report.crossing.relaxations;
     outside = countOutsideParticleBounds(pools.candidates, particles.p);
   }
@@ -294,15 +296,33 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
     if (pool.size() > 0 && !pool.family.jacobiAcceleration) sweep.chebyshevRho = 0;
   sweep.sheetRelaxation = settings.sheetRelaxation;
   sweep.optimizedPaths = settings.optimizedPaths;
+  // The Jacobi sweeps read their own split masses: only the Gauss–Seidel ones weigh supported
+  // particles, from the second round on, once the first has shown which contacts press.
+  const bool weighsSupported =
+      anyContacts && settings.supportedInverseMassScale != 1 &&
+      (kind == SolverKind::GaussSeidel || kind == SolverKind::ColoredGaussSeidel);
   int roundsDone = 0;
   for (const SweepOp& op : plan.ops) {
     runSweepOp(op, plan, constraints, sweep, kind);
     if (!op.endsRound) continue;
     if (anyContacts) report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
+    if (roundsDone == 0 && weighsSupported)
+      report.supportedParticles = weighSupportedParticles(
+          constraints, pools.contacts, pools.colliders, pools.primitiveContacts, particles,
+          settings.supportedInverseMassScale);
     // The repeated cascade, from the positions the fine sweeps left.
     if (++roundsDone < plan.rounds && settings.cascade && settings.cascadeEvery > 0 &&
         roundsDone % settings.cascadeEvery == 0)
       runCascade(pools, settings, context, report);
+  }
+  releaseSupportedParticles(constraints, pools.contacts, particles);
+  // Weighed, the sweeps move a supported particle's free neighbours farther than their predicted
+  // motion: those that reached a collider get their contacts, as after a cascade.
+  if (report.supportedParticles > 0 && pools.colliders.size() > 0 &&
+      addReachedContacts(pools.contacts, pools.colliders, particles, context.h) > 0) {
+    report.contactSeconds +=
+        timed([&] { projectContacts(pools.contacts, pools.colliders, particles, kind); });
+    ++report.colliderRedetections;
   }
   constraints.forEach([](auto& pool) { bookVertexMultipliers(pool); });
   // Counted in the pool (World::brokenAttachments).

@@ -36,6 +36,7 @@ struct SolveSettings {
   Real relaxation = 1;
   Real chebyshevRho = kChebyshevSpectralRadius;
   Real sheetRelaxation = 0;
+  Real supportedInverseMassScale = 1;  // SolverSettings::supportedInverseMassScale
   bool optimizedPaths = true;
   // The multigrid cascade: before the first round, then after every `cascadeEvery` rounds (0:
   // only before the first), with `sweepsPerLevel` sweeps of each coarse level.
@@ -70,6 +71,7 @@ struct SolveReport {
   std::size_t redetections = 0;             // candidate pairs found again after the sweeps
   std::size_t incrementalRedetections = 0;  // of which only around the particles off course
   std::size_t colliderRedetections = 0;     // collider contacts found again after a cascade
+  std::size_t supportedParticles = 0;  // weighed by their pressed contacts (supported_particles.h)
   std::size_t cascadeProjections = 0;
   double cascadeSeconds = 0;  // the cascades of the substep, within the solve's time
   std::uint64_t collapsedPressureProjections = 0;  // gas pressures taken at the least volume

@@ -1,0 +1,44 @@
+// Particles supported by a collider, made heavier in the constraint sweeps of the Gauss–Seidel
+// backends.
+//
+// A cloth draped over a body hangs its skirt from the few particles its contacts hold (a box's
+// corner, a table's edge). A Gauss–Seidel projection of an edge between a supported particle and a
+// free one moves both by their inverse masses, so half of each correction pushes the supported
+// particle into the body or along it against friction, and the contacts undo that half between
+// sweep rounds: the weight reaches the support at half the rate per sweep, through every edge of
+// the chain, and ten sweeps leave the edges by the support stretched (a 128² sheet on a turning
+// box: edges beyond 3 times their length). In a two-particle constraint between a supported
+// particle and a free one, the supported end's inverse mass is scaled by k < 1, so the projection
+// moves the free particle instead, as mass scaling does for stacks (Macklin et al. 2014, "Unified
+// particle physics for real-time applications"; the shock propagation of Guendelman et al. 2003).
+// Both ends are then rescaled to keep their sum, which the compliance is weighed against: a spring
+// between them is as stiff as before, a constraint between two supported particles is untouched,
+// and a constraint met before is met after; what changes is where a correction goes, so such a
+// projection does not conserve momentum between the supported particle and the free one. A
+// frictionless contact supports nothing along its surface, and its particle is not supported.
+#pragma once
+
+#include "components/collider_pool.h"
+#include "components/constraint_pools.h"
+#include "components/contact_pool.h"
+#include "components/particles.h"
+#include "components/primitive_contact_pool.h"
+
+namespace nucleon {
+
+// Finds the particles supported this substep (a collider contact with friction that has pressed, λ
+// > 0, or such a contact against primitives of a kinematic body: particles of inverse mass 0;
+// contacts within reach that have not pressed support nothing) and reweighs the ends of the
+// two-particle constraints on them in the pools' endInverseMass, which the Gauss–Seidel projections
+// read; with scale = 1 it does nothing. Returns how many particles are supported. The particle pool
+// keeps every inverse mass as it is: contacts and the cascade read that.
+std::size_t weighSupportedParticles(ConstraintPools& constraints, ContactPool& contacts,
+                                    const ColliderPool& colliders,
+                                    const PrimitiveContactPool& primitiveContacts,
+                                    const ParticlePool& particles, Real scale);
+
+// Gives the supported particles' entries their inverse masses back, and empties the supported list.
+void releaseSupportedParticles(ConstraintPools& constraints, ContactPool& contacts,
+                               const ParticlePool& particles);
+
+}  // namespace nucleon
