@@ -31,10 +31,11 @@ struct ContactPool {
   // position, written back by particle after the lanes.
   std::vector<Vec3> moved;
   // Scratch of the solve (systems/solver/supported_particles.h): the particles a pressed,
-  // frictional contact with a collider or a kinematic body supports in this substep, and per
-  // particle whether it is one.
+  // frictional contact with a collider or a kinematic body supports in this substep, the outward
+  // normal of that support at each, and per particle its place in the list plus one (0: none).
   std::vector<Index> supportedParticles;
-  std::vector<std::uint8_t> supportedMark;
+  std::vector<Vec3> supportedNormal;
+  std::vector<Index> supportedSlot;
 
   // Static (set with the derived tables): per particle, how much farther than its own motion it
   // is looked for within a collider's reach; empty when none is. A liquid particle's is the kernel

@@ -83,7 +83,7 @@ struct CollisionReport {
   // (particle_contacts.h, addReachedContacts).
   std::uint64_t colliderRedetections = 0;
   // Particles a pressed contact with friction supported in a substep, summed over the substeps:
-  // their constraints were reweighed in the Gauss–Seidel sweeps
+  // their constraints were reweighed in the colored sweeps
   // (SolverSettings::supportedInverseMassScale).
   std::uint64_t supportedParticles = 0;
   std::uint64_t candidatePairs = 0;    // broad-phase pairs, summed over substeps

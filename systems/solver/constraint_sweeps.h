@@ -91,14 +91,6 @@ NUCLEON_KERNEL Real correct(const Pool& pool, std::size_t c, const Vec3* p, cons
     x[k] = p[i];
     weights[k] = inverseMass ? inverseMass[i] : ps.w[i];
   }
-  // The Gauss–Seidel projections of a distance family take the pool's copy, where the ends of a
-  // constraint on a supported particle are reweighed (supported_particles.h); it equals ps.w
-  // otherwise.
-  if constexpr (requires { pool.endInverseMass; }) {
-    if constexpr (Pool::kArity == 2)
-      if (!inverseMass && !pool.endInverseMass.empty())
-        for (std::size_t k = 0; k < n; ++k) weights[k] = pool.endInverseMass[c][k];
-  }
   const Real invH2 = invH * invH;
   ProjectionTerms terms;
   terms.alphaTilde = pool.compliance[c] * invH2;

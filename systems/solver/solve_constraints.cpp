@@ -189,7 +189,7 @@ void sweepPinned(SolvePools& pools, const SolveSettings& settings, const Substep
 
 // The fail-safe holds the free particles of a pair crossing a body without free particles (a
 // collider, a pinned group) to that body's rigid motion, but leaves their neighbours where the
-// sweeps put them, which assumed the supported ones would move too: their edges stretch. Where the
+// sweeps put them, which assumed the held ones would move too: their edges stretch. Where the
 // same hold comes back substep after substep (a cloth sliding down off a needle's tip, held at
 // the tip), the stretch grows with every one: edges at five times their rest length within a few
 // frames. The substep's sweeps run once more with those particles pinned to where the body took
@@ -197,8 +197,8 @@ void sweepPinned(SolvePools& pools, const SolveSettings& settings, const Substep
 // cloth on a needle at 3.6 times); the next fail-safe pass checks the motion they leave. The
 // particles of impact zones are not pinned: a zone keeps its momentum, and pinning it would
 // hand its neighbours' momentum to nothing. Returns whether any particle was pinned.
-bool relaxAroundSupportedParticles(SolvePools& pools, const SolveSettings& settings,
-                                   const SubstepContext& context) {
+bool relaxAroundHeldParticles(SolvePools& pools, const SolveSettings& settings,
+                              const SubstepContext& context) {
   PrimitiveContactPool& contacts = pools.primitiveContacts;
   ParticlePool& particles = pools.particles;
   contacts.held.clear();
@@ -258,8 +258,8 @@ void finishPrimitiveContacts(SolvePools& pools, const SolveSettings& settings,
     report.crossing.unresolved = crossing.unresolved;
     // After the first pass only, and only where it carried particles with a body (impact zones
     // alone pin nothing): the later passes check what it and the sweeps left.
-    relaxed = crossing.carried > 0 && pass == 0 &&
-              relaxAroundSupportedParticles(pools, settings, context);
+    relaxed =
+        crossing.carried > 0 && pass == 0 && relaxAroundHeldParticles(pools, settings, context);
     if (relaxed) ++report.crossing.relaxations;
     outside = countOutsideParticleBounds(pools.candidates, particles.p);
   }
@@ -296,11 +296,12 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
     if (pool.size() > 0 && !pool.family.jacobiAcceleration) sweep.chebyshevRho = 0;
   sweep.sheetRelaxation = settings.sheetRelaxation;
   sweep.optimizedPaths = settings.optimizedPaths;
-  // The Jacobi sweeps read their own split masses: only the Gauss–Seidel ones weigh supported
-  // particles, from the second round on, once the first has shown which contacts press.
-  const bool weighsSupported =
-      anyContacts && settings.supportedInverseMassScale != 1 &&
-      (kind == SolverKind::GaussSeidel || kind == SolverKind::ColoredGaussSeidel);
+  // Only the colored batches read the per-constraint inverse masses that are weighed (the generic
+  // projections read the particle pool's, which the fail-safe's pinned sweeps set to 0; the
+  // Jacobi sweeps read split masses): they weigh supported particles from the second round on,
+  // once the first has shown which contacts press.
+  const bool weighsSupported = anyContacts && settings.supportedInverseMassScale != 1 &&
+                               kind == SolverKind::ColoredGaussSeidel;
   int roundsDone = 0;
   for (const SweepOp& op : plan.ops) {
     runSweepOp(op, plan, constraints, sweep, kind);

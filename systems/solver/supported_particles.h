@@ -1,21 +1,23 @@
-// Particles supported by a collider, made heavier in the constraint sweeps of the Gauss–Seidel
-// backends.
+// Particles supported by a collider, made heavier in the colored batches of distance constraints
+// (colored-gs, and multigrid's colored smoother), when SolverSettings::supportedInverseMassScale
+// asks for it.
 //
 // A cloth draped over a body hangs its skirt from the few particles its contacts hold (a box's
 // corner, a table's edge). A Gauss–Seidel projection of an edge between a supported particle and a
-// free one moves both by their inverse masses, so half of each correction pushes the supported
-// particle into the body or along it against friction, and the contacts undo that half between
-// sweep rounds: the weight reaches the support at half the rate per sweep, through every edge of
-// the chain, and ten sweeps leave the edges by the support stretched (a 128² sheet on a turning
-// box: edges beyond 3 times their length). In a two-particle constraint between a supported
-// particle and a free one, the supported end's inverse mass is scaled by k < 1, so the projection
-// moves the free particle instead, as mass scaling does for stacks (Macklin et al. 2014, "Unified
-// particle physics for real-time applications"; the shock propagation of Guendelman et al. 2003).
-// Both ends are then rescaled to keep their sum, which the compliance is weighed against: a spring
-// between them is as stiff as before, a constraint between two supported particles is untouched,
-// and a constraint met before is met after; what changes is where a correction goes, so such a
-// projection does not conserve momentum between the supported particle and the free one. A
-// frictionless contact supports nothing along its surface, and its particle is not supported.
+// free one hanging below it moves both by their inverse masses, so half of each correction pushes
+// the supported particle into the body, and the contacts undo that half between sweep rounds: the
+// weight reaches the support at half the rate per sweep, through every edge of the chain, and ten
+// sweeps leave the edges by the support stretched (a 128² sheet on a turning box: edges beyond 3
+// times their length). In a two-particle constraint between a supported particle and a free one
+// (unless it rises from it: kRisingCosine), the supported end's inverse mass is scaled by k < 1, so
+// the projection moves the free particle instead, as mass scaling does for stacks (Macklin et al.
+// 2014, "Unified particle physics for real-time applications"; the shock propagation of Guendelman
+// et al. 2003). Both ends are then rescaled to keep their sum, which the compliance is weighed
+// against: a spring between them is as stiff as before, a constraint between two supported
+// particles is untouched, and a constraint met before is met after; what changes is where a
+// correction goes, so such a projection does not conserve momentum between the two, and a
+// frictionless contact supports nothing. Off by default: the forms measured did not improve every
+// torture scene (bench/results/2core-AMD-EPYC/torture.md).
 #pragma once
 
 #include "components/collider_pool.h"
@@ -26,12 +28,20 @@
 
 namespace nucleon {
 
+// A free neighbour rises from a supported particle when the edge between them points out of the
+// support's tangent plane, away from the support, by more than this cosine (about 17°): a
+// particle that has just struck the support, its neighbours still falling onto it. Such an edge
+// is left unweighed: weighed, the struck particles held back the sliding ones as a friction the
+// contact does not have, and a sheet whose corner struck the ground stretched an edge to 3.2
+// times its length.
+inline constexpr Real kRisingCosine = Real(0.3);
+
 // Finds the particles supported this substep (a collider contact with friction that has pressed, λ
 // > 0, or such a contact against primitives of a kinematic body: particles of inverse mass 0;
 // contacts within reach that have not pressed support nothing) and reweighs the ends of the
-// two-particle constraints on them in the pools' endInverseMass, which the Gauss–Seidel projections
-// read; with scale = 1 it does nothing. Returns how many particles are supported. The particle pool
-// keeps every inverse mass as it is: contacts and the cascade read that.
+// two-particle constraints on them in the pools' endInverseMass, which the colored batches read;
+// with scale = 1 it does nothing. Returns how many particles are supported. The particle pool keeps
+// every inverse mass as it is: contacts and the cascade read that.
 std::size_t weighSupportedParticles(ConstraintPools& constraints, ContactPool& contacts,
                                     const ColliderPool& colliders,
                                     const PrimitiveContactPool& primitiveContacts,
