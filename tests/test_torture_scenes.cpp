@@ -136,7 +136,10 @@ TEST(UnsolvedTortureScenes, TheFineDrapeIsCleanWithSupportedParticlesWeighed) {
   ASSERT_FALSE(j.is_null());
   expectCleanInEveryFrame(run);
   EXPECT_LT(j.at("failures").at("worst_frame_max_strain").get<double>(), 1.75);
+#if !defined(__SANITIZE_ADDRESS__)
+  // The sheet reaches the box in frame 8: the sanitizer build's 4 frames end before it.
   EXPECT_GT(j.at("collisions").at("supported_particles").get<long long>(), 0);
+#endif
 }
 
 // The 128² drape's cloth is finer than its contact distance: the run says so before it starts
