@@ -42,20 +42,35 @@ using namespace nucleon;
 
 constexpr Real kH = Real(1) / 60;
 
-enum class Subject { Stretch, Shear, ClothBend, Volume, CurveBend, Twist, Tether, IsometricBend };
+// SoftClothBend: the dihedral hinges with a bend compliance (1 m/N, cloth_hang_388's), which
+// the Jacobi backend sweeps by colors instead of through its slots (constraint_sweeps.h).
+enum class Subject {
+  Stretch,
+  Shear,
+  ClothBend,
+  Volume,
+  CurveBend,
+  Twist,
+  Tether,
+  IsometricBend,
+  SoftClothBend
+};
 const char* subjectName(Subject s) {
-  constexpr const char* names[] = {"stretch",    "shear", "cloth-bend", "volume",
-                                   "curve-bend", "twist", "tether",     "cloth-bend-isometric"};
+  constexpr const char* names[] = {"stretch",        "shear", "cloth-bend", "volume",
+                                   "curve-bend",     "twist", "tether",     "cloth-bend-isometric",
+                                   "cloth-bend-soft"};
   return names[static_cast<int>(s)];
 }
 
-World hangingCloth(int n, bool shearAndBend, BendModel bendModel = BendModel::Dihedral) {
+World hangingCloth(int n, bool shearAndBend, BendModel bendModel = BendModel::Dihedral,
+                   Real bendCompliance = 0) {
   GridSpec spec;
   spec.resolution = {n, n};
   ObjectDef cloth = gridCloth(spec);
   cloth.pins = {0, static_cast<Index>(n - 1)};
   cloth.material.shear = cloth.material.bending = shearAndBend;
   cloth.material.bendModel = bendModel;
+  cloth.material.bendCompliance = bendCompliance;
   World world;
   world.addCloth(cloth);
   return world;
@@ -81,7 +96,8 @@ World worldFor(Subject subject, int n) {
     world = hangingCloth(n, false);  // tethers need no shear or bend, whose steps are slow
   } else {
     world = hangingCloth(
-        n, true, subject == Subject::IsometricBend ? BendModel::Isometric : BendModel::Dihedral);
+        n, true, subject == Subject::IsometricBend ? BendModel::Isometric : BendModel::Dihedral,
+        subject == Subject::SoftClothBend ? Real(1) : Real(0));
   }
   return world;
 }
@@ -186,13 +202,16 @@ void BM_Sweep(benchmark::State& state) {
     case Subject::IsometricBend:
       sweepLoop<IsometricBendKernel>(state, pools.isometricBend, s, kind, threads);
       break;
+    case Subject::SoftClothBend:
+      sweepLoop<DihedralKernel>(state, pools.bend, s, kind, threads);
+      break;
   }
   state.SetLabel(std::string(subjectName(subject)) + " " + toString(kind));
 }
 
 // Every subject × size × backend, at 1 and 2 threads (Gauss–Seidel is sequential: 1 only).
 void sweepArguments(benchmark::internal::Benchmark* b) {
-  for (int subject = 0; subject <= static_cast<int>(Subject::IsometricBend); ++subject)
+  for (int subject = 0; subject <= static_cast<int>(Subject::SoftClothBend); ++subject)
     for (int n : {64, 128, 256})
       for (SolverKind kind :
            {SolverKind::GaussSeidel, SolverKind::Jacobi, SolverKind::ColoredGaussSeidel})

@@ -78,6 +78,11 @@ struct BuiltinSolveState : ConstraintSolveState {
   bool vertexJacobi = false;
   bool vertexHistory = false;
   bool vertexLambdaPending = false;
+  // Jacobi by colors (solveJacobi, constraint_sweeps.h), for angular pools stored in color order
+  // whose constraints are all soft (none keeps a history in its slots): per particle, the sum of
+  // its constraints' corrections within a sweep, zero between sweeps. Empty where the slot path
+  // runs.
+  std::vector<Vec3> correctionSum;
 };
 
 template <std::size_t N>

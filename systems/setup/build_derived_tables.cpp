@@ -40,7 +40,18 @@ void buildDerivedTables(ConstraintPools& pools, const ParticlePool& particles, S
     // memory and its sweep streams through the constraint columns. Sequential Gauss–Seidel
     // visits the same order through coloring.order (its stable order, constraint_sweeps.h);
     // Jacobi keeps the mesh order, whose neighbouring constraints share particles.
-    if ((kind == SolverKind::ColoredGaussSeidel || kind == SolverKind::Multigrid) &&
+    // Jacobi stores a soft angular pool in color order too, for its sweep by colors
+    // (constraint_sweeps.h, solveJacobi): the mesh order's locality served the slot path's
+    // gather, which that sweep does without.
+    const bool colorJacobi = (paths & kAngularBatch) != 0 && !pool.coloring.overflow && [&] {
+      // Every constraint soft (a compliance or damping): the angular families accelerate
+      // hard constraints only, whose history lives in the slots.
+      for (std::size_t c = 0; c < pool.size(); ++c)
+        if (pool.compliance[c] == 0 && pool.compressionCompliance[c] == 0 && pool.damping[c] == 0)
+          return false;
+      return true;
+    }();
+    if ((kind == SolverKind::ColoredGaussSeidel || kind == SolverKind::Multigrid || colorJacobi) &&
         !pool.coloring.inPlace) {
       pool.permute(pool.coloring.order);
       std::iota(pool.coloring.order.begin(), pool.coloring.order.end(), Index(0));
@@ -58,6 +69,10 @@ void buildDerivedTables(ConstraintPools& pools, const ParticlePool& particles, S
     pool.lambda.assign(pool.size(), 0);
     if constexpr (!std::is_same_v<Pool, UserConstraintPool>) {
       constexpr std::size_t arity = Pool::kArity;
+      // Jacobi by colors (above).
+      pool.correctionSum.clear();
+      if (colorJacobi && pool.coloring.inPlace)
+        pool.correctionSum.assign(particles.size(), Vec3::Zero());
       pool.endInverseMass.resize(pool.size());
       for (std::size_t c = 0; c < pool.size(); ++c)
         for (std::size_t k = 0; k < arity; ++k)

@@ -357,6 +357,56 @@ template <class Lanes>
   return k;
 }
 
+// Jacobi by colors: constraints [begin, end) of one color (no two share a free particle) read
+// the same positions as in projectJacobi and add their corrections to their particles' sums,
+// b.sum[i] += u, instead of writing slots; the batches are the slot path's blocks of eight from
+// constraint 0, their lanes outside [begin, end) computed and dropped, so each constraint gets
+// the slot path's bits (λ included) and each particle's sum its terms in the gather's order when
+// the colors are swept in order. The caller keeps `end` within the pool's whole blocks, and uses
+// it only where no constraint carries a history (every one soft: carry never applies).
+template <class Lanes>
+[[gnu::target(NUCLEON_LANE_TARGET)]] Index accumulateJacobi(
+    const AngularJacobiBatch<Lanes::kArity>& b, Index begin, Index end) {
+  constexpr int n = Lanes::kArity;
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 inverseH2 = _mm256_set1_ps(b.inverseH2);
+  const __m256 relaxation = _mm256_set1_ps(b.relaxation);
+  const __m256i laneIndex = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  for (Index k = begin - begin % kAngularBatchSize; k < end; k += kAngularBatchSize) {
+    // Lanes k + j in [begin, end): j ≥ begin − k and j < end − k.
+    const __m256i first = _mm256_set1_epi32(static_cast<int>(begin) - static_cast<int>(k));
+    const __m256i past = _mm256_set1_epi32(static_cast<int>(end) - static_cast<int>(k));
+    const __m256i inRange = _mm256_andnot_si256(_mm256_cmpgt_epi32(first, laneIndex),
+                                                _mm256_cmpgt_epi32(past, laneIndex));
+    const int ownLanes = _mm256_movemask_ps(_mm256_castsi256_ps(inRange));
+    Lane3 x[n];
+    loadCorners(b.positions, b.particles, k, x);
+    __m256 w[n];
+    loadMasses(b.splitInverseMass, b.particles, k, w);
+    const __m256 lambda = _mm256_loadu_ps(b.lambda + k);
+    const AngleLanes<n> angle = evaluateLanes<Lanes>(b, k, x);
+    const __m256 deltaLambda = multiplierStep<n, !kWeightedLanes<Lanes>>(
+        angle, w, _mm256_loadu_ps(b.rest + k), _mm256_loadu_ps(b.compliance + k),
+        _mm256_loadu_ps(b.compressionCompliance + k), lambda, inverseH2);
+    const __m256 scaled = _mm256_mul_ps(relaxation, deltaLambda);
+    _mm256_maskstore_ps(b.lambda + k, inRange, _mm256_add_ps(lambda, scaled));
+    for (int c = 0; c < n; ++c) {
+      const __m256 f = _mm256_mul_ps(w[c], scaled);
+      const Lane3 u = scale(angle.gradient[c], f);
+      __m128 row[8];
+      point_lanes::transposeLanes(u, row);
+      // Pins (w = 0) take no correction and may be shared within a color: not written.
+      const int own = ownLanes & _mm256_movemask_ps(_mm256_cmp_ps(w[c], zero, _CMP_NEQ_OQ));
+      for (int j = 0; j < 8; ++j) {
+        if (!(own >> j & 1)) continue;
+        Vec3& sum = b.sum[b.particles[k + j][c]];
+        point_lanes::storePoint(sum, _mm_add_ps(point_lanes::loadPoint(sum), row[j]));
+      }
+    }
+  }
+  return end;
+}
+
 #undef NUCLEON_LANES
 
 }  // namespace
@@ -383,6 +433,18 @@ Index projectAngleBatches(const InPlaceBatch<3>& batch, Index begin, Index end) 
 
 Index projectAngleJacobiBatches(const JacobiBatch<3>& batch, Index begin, Index end) {
   return projectJacobi<AngleLanesKernel>(batch, begin, end);
+}
+
+Index accumulateHingeJacobiBatches(const JacobiBatch<4>& batch, Index begin, Index end) {
+  return accumulateJacobi<HingeLanes>(batch, begin, end);
+}
+
+Index accumulateIsometricBendJacobiBatches(const JacobiBatch<4>& batch, Index begin, Index end) {
+  return accumulateJacobi<IsometricBendLanes>(batch, begin, end);
+}
+
+Index accumulateAngleJacobiBatches(const JacobiBatch<3>& batch, Index begin, Index end) {
+  return accumulateJacobi<AngleLanesKernel>(batch, begin, end);
 }
 
 #endif
@@ -420,6 +482,20 @@ Index projectAngleBatches(const AngularBatch<3>& batch, Index begin, Index end) 
 
 Index projectAngleJacobiBatches(const AngularJacobiBatch<3>& batch, Index begin, Index end) {
   return NUCLEON_CALL_LANES(laneIsa(), projectAngleJacobiBatches, begin, batch, begin, end);
+}
+
+Index accumulateHingeJacobiBatches(const AngularJacobiBatch<4>& batch, Index begin, Index end) {
+  return NUCLEON_CALL_LANES(laneIsa(), accumulateHingeJacobiBatches, begin, batch, begin, end);
+}
+
+Index accumulateIsometricBendJacobiBatches(const AngularJacobiBatch<4>& batch, Index begin,
+                                           Index end) {
+  return NUCLEON_CALL_LANES(laneIsa(), accumulateIsometricBendJacobiBatches, begin, batch, begin,
+                            end);
+}
+
+Index accumulateAngleJacobiBatches(const AngularJacobiBatch<3>& batch, Index begin, Index end) {
+  return NUCLEON_CALL_LANES(laneIsa(), accumulateAngleJacobiBatches, begin, batch, begin, end);
 }
 
 }  // namespace nucleon

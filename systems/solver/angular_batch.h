@@ -49,4 +49,14 @@ Index projectIsometricBendJacobiBatches(const AngularJacobiBatch<4>& batch, Inde
 Index projectAngleBatches(const AngularBatch<3>& batch, Index begin, Index end);
 Index projectAngleJacobiBatches(const AngularJacobiBatch<3>& batch, Index begin, Index end);
 
+// Jacobi by colors (constraint_sweeps.h, solveJacobi): constraints [begin, end) of one color add
+// their corrections to batch.sum per particle instead of writing their slots, with the slot
+// path's bits for each constraint and its λ. `end` must lie within the pool's whole blocks of
+// eight from constraint 0, and no constraint of the pool may be accelerated (every one soft).
+// Return `end`, or `begin` where the batched path is unavailable.
+Index accumulateHingeJacobiBatches(const AngularJacobiBatch<4>& batch, Index begin, Index end);
+Index accumulateIsometricBendJacobiBatches(const AngularJacobiBatch<4>& batch, Index begin,
+                                           Index end);
+Index accumulateAngleJacobiBatches(const AngularJacobiBatch<3>& batch, Index begin, Index end);
+
 }  // namespace nucleon

@@ -62,6 +62,9 @@ struct JacobiBatch : BatchColumns<N> {
   Real step = 1;               // ω γ
   Real carry = 0;              // ω − 1 (0: plain sweep, the old slots are not read)
   Real* lambdaMove = nullptr;  // distance batches: δλ per constraint (ConstraintPool::lambdaMove)
+  // Jacobi by colors (angular batches): per particle, the sum of the corrections so far this
+  // sweep, which the accumulating batches add to in place of the slots.
+  Vec3* sum = nullptr;
 };
 
 }  // namespace nucleon

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 
 #include <type_traits>
@@ -371,6 +372,83 @@ void resetMultipliers(Pool& pool) {
 // the slot path always (Slots; the reference the tests compare the vertex path with).
 enum class JacobiPath { Automatic, Slots };
 
+namespace sweep_detail {
+// Below this many constraints an angular pool keeps the slot path: a parallel loop per color
+// costs more than the gather it saves.
+constexpr std::size_t kColorJacobiMinimum = 4096;
+
+template <class Kernel>
+Index accumulateJacobiBatches(const JacobiBatch<Kernel::kArity>& b, Index begin, Index end) {
+  if constexpr (Kernel::kArity == 3)
+    return accumulateAngleJacobiBatches(b, begin, end);
+  else if constexpr (std::is_same_v<Kernel, IsometricBendKernel>)
+    return accumulateIsometricBendJacobiBatches(b, begin, end);
+  else
+    return accumulateHingeJacobiBatches(b, begin, end);
+}
+
+// The slot path's sweep with the gather folded into the projections, for an angular pool stored
+// in color order whose constraints are all soft (pool.correctionSum). The slot path writes
+// n corrections per constraint into slots and gathers them per particle, 24 bytes written and
+// read back per corner, scattered across the colors, which cost the 388² cloth's bend sweep as
+// much as its projections. Here each color in turn adds its constraints' corrections to the
+// per-particle sums (no two constraints of a color share a free particle), then each particle
+// moves by its sum over its constraint count. Each constraint is projected from the same
+// positions, by the lanes or the scalar kernel exactly where the slot path uses each, and each
+// sum takes its terms in the slot order of the incidence table (increasing constraint index,
+// hence color by color): the same bits as the slot path, for any thread count.
+template <class Kernel, class Pool>
+void solveJacobiByColors(Pool& pool, const SweepContext& context, const JacobiFactors& factors,
+                         Real invH) {
+  const std::size_t n = pool.arity();
+  JacobiBatch<Kernel::kArity> batch = jacobiBatchOf<Kernel>(pool, context, factors, invH);
+  batch.sum = pool.correctionSum.data();
+  Vec3* sum = pool.correctionSum.data();
+  // The slot path's lanes take the whole blocks of eight from constraint 0.
+  const Index batchedEnd =
+      static_cast<Index>(pool.size() / kDistanceBatchSize * kDistanceBatchSize);
+  for (std::size_t color = 0; color < pool.coloring.colorCount(); ++color) {
+    const Index begin = pool.coloring.colorOffset[color];
+    const Index end = pool.coloring.colorOffset[color + 1];
+    const Index lanesEnd = std::min(end, batchedEnd);
+    Index scalarBegin = std::max(begin, batchedEnd);
+    if (begin < lanesEnd) {
+      const Index firstBlock = begin / kDistanceBatchSize;
+      const Index lastBlock = (lanesEnd + kDistanceBatchSize - 1) / kDistanceBatchSize;
+      std::atomic<bool> unbatched{false};
+      tbb::parallel_for(
+          tbb::blocked_range<Index>(firstBlock, lastBlock, kGrain / kDistanceBatchSize),
+          [&](const tbb::blocked_range<Index>& r) {
+            const Index from = std::max(begin, r.begin() * kDistanceBatchSize);
+            const Index to = std::min(lanesEnd, r.end() * kDistanceBatchSize);
+            if (accumulateJacobiBatches<Kernel>(batch, from, to) != to)
+              unbatched.store(true, std::memory_order_relaxed);
+          },
+          tbb::static_partitioner());
+      if (unbatched.load()) scalarBegin = begin;  // no lanes after all: the slot path's scalar
+    }
+    // The rest one by one through the slots, in order, as the gather would add them.
+    for (Index c = scalarBegin; c < end; ++c) {
+      jacobiOne<Kernel>(pool, c, context, factors, invH);
+      for (std::size_t k = 0; k < n; ++k) sum[pool.particle(c, k)] += pool.correction[n * c + k];
+    }
+  }
+  const ParticleIncidence& incidence = pool.incidence;
+  Vec3* p = context.particles.p.data();
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, incidence.offset.size() - 1, 2048),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Index count = incidence.offset[i + 1] - incidence.offset[i];
+          if (count == 0) continue;
+          p[i] += (Real(1) / Real(count)) * sum[i];
+          sum[i].setZero();
+        }
+      },
+      tbb::static_partitioner());
+}
+}  // namespace sweep_detail
+
 template <class Kernel, unsigned Paths = kApplicablePaths, class Pool>
 void solveJacobi(Pool& pool, const SweepContext& context, JacobiPath path = JacobiPath::Automatic) {
   const Real invH = 1 / context.h;
@@ -400,6 +478,15 @@ void solveJacobi(Pool& pool, const SweepContext& context, JacobiPath path = Jaco
     if (pool.vertexHistory) factors.carry = 0;  // the slots are stale: restart
     pool.vertexHistory = false;
     bookVertexMultipliers(pool);  // the slot path books its own as it goes
+  }
+  if constexpr (sweep_detail::kAngularKernel<Kernel> && sweep_detail::kBatched<Kernel, Paths>) {
+    if (path == JacobiPath::Automatic && !pool.correctionSum.empty() && !context.objectRuns &&
+        context.optimizedPaths && pool.undamped &&
+        pool.size() >= sweep_detail::kColorJacobiMinimum &&
+        sweep_detail::batchesAvailable<Kernel>()) {
+      sweep_detail::solveJacobiByColors<Kernel>(pool, context, factors, invH);
+      return;
+    }
   }
   // Blocks of kDistanceBatchSize constraints from constraint 0, whatever the partitioning: which
   // constraints take the batched path, and hence the rounding, never depends on the thread count.

@@ -16,17 +16,20 @@
 
 // Each set's entries: the batches project as projectDistanceBatches (distance_batch.h) and the
 // like; moveVertexBlocks is the vertex sweep's first pass for blocks [begin, end).
-#define NUCLEON_LANE_KERNEL_ENTRIES                                                              \
-  Index projectDistanceBatches(const InPlaceBatch<2>& batch, Index begin, Index end);            \
-  Index projectDistanceJacobiBatches(const JacobiBatch<2>& batch, Index begin, Index end);       \
-  Index projectHingeBatches(const InPlaceBatch<4>& batch, Index begin, Index end);               \
-  Index projectHingeJacobiBatches(const JacobiBatch<4>& batch, Index begin, Index end);          \
-  Index projectIsometricBendBatches(const InPlaceBatch<4>& batch, Index begin, Index end);       \
-  Index projectIsometricBendJacobiBatches(const JacobiBatch<4>& batch, Index begin, Index end);  \
-  Index projectAngleBatches(const InPlaceBatch<3>& batch, Index begin, Index end);               \
-  Index projectAngleJacobiBatches(const JacobiBatch<3>& batch, Index begin, Index end);          \
-  void moveVertexBlocks(const VertexSlotRows& rows, std::span<const Vec3> positions, Real* move, \
-                        Real* laneLambda, const VertexJacobiStep& step, bool accumulate,         \
+#define NUCLEON_LANE_KERNEL_ENTRIES                                                                \
+  Index projectDistanceBatches(const InPlaceBatch<2>& batch, Index begin, Index end);              \
+  Index projectDistanceJacobiBatches(const JacobiBatch<2>& batch, Index begin, Index end);         \
+  Index projectHingeBatches(const InPlaceBatch<4>& batch, Index begin, Index end);                 \
+  Index projectHingeJacobiBatches(const JacobiBatch<4>& batch, Index begin, Index end);            \
+  Index projectIsometricBendBatches(const InPlaceBatch<4>& batch, Index begin, Index end);         \
+  Index projectIsometricBendJacobiBatches(const JacobiBatch<4>& batch, Index begin, Index end);    \
+  Index projectAngleBatches(const InPlaceBatch<3>& batch, Index begin, Index end);                 \
+  Index projectAngleJacobiBatches(const JacobiBatch<3>& batch, Index begin, Index end);            \
+  Index accumulateHingeJacobiBatches(const JacobiBatch<4>& batch, Index begin, Index end);         \
+  Index accumulateIsometricBendJacobiBatches(const JacobiBatch<4>& batch, Index begin, Index end); \
+  Index accumulateAngleJacobiBatches(const JacobiBatch<3>& batch, Index begin, Index end);         \
+  void moveVertexBlocks(const VertexSlotRows& rows, std::span<const Vec3> positions, Real* move,   \
+                        Real* laneLambda, const VertexJacobiStep& step, bool accumulate,           \
                         std::size_t begin, std::size_t end);
 
 namespace nucleon::avx2 {
