@@ -125,6 +125,17 @@ struct Eight {
                        _CMP_LE_OQ);
 }
 
+// Lanes surely inside the ball (surelyInsideTether, tether_projection.h): |x − c|² below r² by a
+// margin that rounding cannot cross, without a square root.
+[[gnu::target("avx2,fma")]] inline __m256 surelyInsideBall(__m256 x, __m256 y, __m256 z,
+                                                           const Eight& c, __m256 r) {
+  const __m256 dx = _mm256_sub_ps(x, c.x), dy = _mm256_sub_ps(y, c.y), dz = _mm256_sub_ps(z, c.z);
+  const __m256 squared = _mm256_fmadd_ps(dx, dx, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dz, dz)));
+  const __m256 limit =
+      _mm256_mul_ps(_mm256_mul_ps(r, r), _mm256_set1_ps(1 - 16 * tether_detail::kInsideSlack));
+  return _mm256_cmp_ps(squared, limit, _CMP_LT_OQ);
+}
+
 // projectOntoTetherPair, eight at a time, branch-free: every candidate is computed and the
 // lanes pick theirs.
 [[gnu::target("avx2,fma")]] inline void projectOntoBallPair(__m256& x, __m256& y, __m256& z,
@@ -194,13 +205,18 @@ struct Eight {
     if (k > 0) loadPairs(pool, layers[k] + a, vertex, pin);
     loadPins(pool, p, base, pin, pinA);
     const __m256 ra = _mm256_loadu_ps(pool.rest.data() + layers[k] + a);
+    // Eight vertices surely inside their balls stay where they are: the projections' square
+    // roots and divisions are skipped (most of a hanging cloth's tethers are slack).
+    const __m256 insideA = surelyInsideBall(x, y, z, pinA, ra);
     if (!reaches(k + 1)) {
-      projectOntoBall(x, y, z, pinA, ra, x, y, z);
+      if (_mm256_movemask_ps(insideA) != 0xFF) projectOntoBall(x, y, z, pinA, ra, x, y, z);
       continue;
     }
     loadPairs(pool, layers[k + 1] + a, vertex, pin);
     loadPins(pool, p, base, pin, pinB);
     const __m256 rb = _mm256_loadu_ps(pool.rest.data() + layers[k + 1] + a);
+    if (_mm256_movemask_ps(_mm256_and_ps(insideA, surelyInsideBall(x, y, z, pinB, rb))) == 0xFF)
+      continue;
     projectOntoBallPair(x, y, z, pinA, ra, pinB, rb);
   }
   if (consecutive) {
