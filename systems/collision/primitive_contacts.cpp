@@ -1263,9 +1263,11 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
             const double motion = motionBound(v, X0, X1);
             // Non-finite motion is the update's to reset and count, not the fail-safe's. A pair
             // that already touches at the start (coincident vertices of two objects, say) has no
-            // crossing-free start to keep: its contact pushes it apart instead.
+            // crossing-free start to keep: its contact pushes it apart instead. One apart by any
+            // distance at all has one, however close (two layers of cloth pressed flat onto the
+            // ground lie within a nanometre of each other), and CCD holds it there.
             if (!std::isfinite(motion) || contacts.startDistance[i] - motion > 0 ||
-                !(contacts.startDistance[i] > 1e-9))
+                !(contacts.startDistance[i] > 0))
               continue;
             contacts.suspect[i] = pairCcd(v.kind, X0, X1, 0.0).hit ? 1 : 0;
           }
