@@ -123,12 +123,15 @@ struct PrimitiveContactPool {
   static constexpr Index kNoZone = ~Index{0};
   struct ImpactZone {
     double mass = 0;
-    Vec3d center = Vec3d::Zero();   // centre of mass at the start of the substep
-    Vec3d motion = Vec3d::Zero();   // mean motion over the substep (linear momentum / mass)
-    Vec3d angular = Vec3d::Zero();  // angular momentum of the motion about the centre (× h)
-    Mat3d inertia = Mat3d::Zero();  // inertia tensor about the centre
-    Mat3d rotation = Mat3d::Identity();
-    bool stopped = false;  // held where the substep began (momentum lost, counted)
+    Vec3d center = Vec3d::Zero();        // centre of mass at the start of the substep
+    Vec3d motion = Vec3d::Zero();        // mean motion over the substep (linear momentum / mass)
+    Vec3d angular = Vec3d::Zero();       // angular momentum of the motion about the centre (× h)
+    Mat3d inertia = Mat3d::Zero();       // inertia tensor about the centre
+    Mat3d rotation = Mat3d::Identity();  // the turn of the share of the motion it takes
+    Vec3d turn = Vec3d::Zero();          // the whole turn over the substep, as a rotation vector
+    double share = 1;                    // the share of its rigid motion it takes (below)
+    bool deeper = false;                 // scratch: the share takes a particle into a collider
+    bool stopped = false;                // held where the substep began (momentum lost, counted)
   };
   std::vector<Index> zoneParent;
   std::vector<Index> zoneSlot;

@@ -98,8 +98,9 @@ struct CollisionReport {
   // Impact zones the fail-safe moved as rigid bodies keeping their particles' momentum (summed
   // over its passes and substeps; the rest of the reset positions are theirs).
   std::uint64_t impactZones = 0;
-  // … of them stopped where the substep began, their momentum lost, to end the fail-safe's rounds
-  // or because their rigid motion would have entered the ground or a sphere.
+  // … of them stopped where the substep began, their momentum lost, to end the fail-safe's rounds,
+  // or moved only part of their rigid motion (or none) because the whole of it would have entered
+  // the ground or a sphere.
   std::uint64_t stoppedImpactZones = 0;
   // … and turns of a quarter or more in one substep the zones left out, translating only.
   std::uint64_t impactZoneTurnsDropped = 0;

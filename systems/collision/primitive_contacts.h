@@ -102,7 +102,7 @@ struct CrossingReport {
   std::size_t carried = 0;       // … of which carried by a kinematic body's motion
   std::size_t squeezed = 0;      // squeezes between two bodies it held a particle in the gap of
   std::size_t zones = 0;         // impact zones it moved as rigid bodies
-  std::size_t stoppedZones = 0;  // … of them stopped, momentum lost, to end the rounds
+  std::size_t stoppedZones = 0;  // … of them stopped or slowed, momentum lost
   // zone turns of a quarter or more in one substep, left out (the zone only translated)
   std::size_t turnsDropped = 0;
   // pairs still crossing when its round limit was reached (and, from the solve, particles it
