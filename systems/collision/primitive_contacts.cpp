@@ -127,14 +127,17 @@ Vec3d combine(const std::array<double, 4>& c, const Vec3d* X, int count) {
 // crossing-free at any distance above zero, and holding it to its start keeps it so: two parts of
 // a sheet pressed flat onto the ground lie within a nanometre of each other, and passed over at
 // 1e-9 m a vertex of one slid onto a triangle of the other (cloth_drop_sphere at 3 substeps).
-// Against a side with no free particle (a collider, a pinned group), or between isolated points,
-// within 1e-9 m is touching: the water of liquid_paddle has thousands of such pairs against its
-// box and paddle in the double build, which the fail-safe could not hold in 64 rounds.
+// Within 1e-12 m they are taken as coincident, as a float build rounds them: checked down to zero,
+// the double build's torn cloth (the lips of a tear) left pairs unresolved and a frame with an
+// intersection. Against a side with no free particle (a collider, a pinned group), or between
+// isolated points, within 1e-9 m is touching: the water of liquid_paddle has thousands of such
+// pairs against its box and paddle in the double build, which the fail-safe could not hold in 64
+// rounds.
 double touchingDistance(const PairView& v, const ParticlePool& particles) {
   if (v.kind != PairKind::VertexFace && v.kind != PairKind::EdgeEdge) return 1e-9;
   bool freeA = false, freeB = false;
   for (int k = 0; k < v.count; ++k) (k < v.firstSide ? freeA : freeB) |= particles.w[v.id[k]] > 0;
-  return freeA && freeB ? 0.0 : 1e-9;
+  return freeA && freeB ? 1e-12 : 1e-9;
 }
 
 // Earliest time in [0, 1] at which the pair, moving linearly from X0 to X1, may come within
