@@ -129,9 +129,10 @@ struct PrimitiveContactPool {
     Mat3d inertia = Mat3d::Zero();       // inertia tensor about the centre
     Mat3d rotation = Mat3d::Identity();  // the turn of the share of the motion it takes
     Vec3d turn = Vec3d::Zero();          // the whole turn over the substep, as a rotation vector
-    double share = 1;                    // the share of its rigid motion it takes (below)
-    bool deeper = false;                 // scratch: the share takes a particle into a collider
-    bool stopped = false;                // held where the substep began (momentum lost, counted)
+    // The share of its rigid motion it takes (moveImpactZones): 1, or less where the whole would
+    // enter a collider; 0: held where the substep began (momentum lost, counted).
+    double share = 1;
+    bool deeper = false;  // scratch: the share takes a particle into a collider
   };
   std::vector<Index> zoneParent;
   std::vector<Index> zoneSlot;

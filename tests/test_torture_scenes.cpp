@@ -104,9 +104,9 @@ TEST(BucklingClothTortureScene, BoxStaticIsCleanInEveryFrame) {
 // lies crumpled against the wall and on the ground, and the impact zones there would dip into the
 // ground when turned: stopped where the substep began, the same zones stopped substep after
 // substep, and the edges from them to the sheet around stayed at up to 4.45 times their rest
-// length from frame 21 to the end (63 frames not clean). A zone now takes the largest half,
-// quarter, … of its rigid motion that keeps out of the ground. The float build runs the whole
-// scene, the double build the first 45 frames, the sanitizer build 30 (memory and
+// length from frame 21 to the end (63 frames not clean). A zone now takes the largest of its whole
+// rigid motion, a half, a quarter, … of it that keeps out of the ground. The float build runs the
+// whole scene, the double build the first 45 frames, the sanitizer build 30 (memory and
 // undefined-behaviour errors only).
 TEST(OtherSubsteps, WallSlamAtThreeSubstepsIsCleanInEveryFrame) {
   const std::vector<std::string> args = {"--substeps", "3", "--frames",

@@ -133,11 +133,21 @@ Vec3d combine(const std::array<double, 4>& c, const Vec3d* X, int count) {
 // isolated points, within 1e-9 m is touching: the water of liquid_paddle has thousands of such
 // pairs against its box and paddle in the double build, which the fail-safe could not hold in 64
 // rounds.
+// Whether each side of a pair has a particle of nonzero inverse mass.
+struct FreeSides {
+  bool first = false, second = false;
+};
+FreeSides freeSides(const PairView& v, const ParticlePool& particles) {
+  FreeSides sides;
+  for (int k = 0; k < v.count; ++k)
+    (k < v.firstSide ? sides.first : sides.second) |= particles.w[v.id[k]] > 0;
+  return sides;
+}
+
 double touchingDistance(const PairView& v, const ParticlePool& particles) {
   if (v.kind != PairKind::VertexFace && v.kind != PairKind::EdgeEdge) return 1e-9;
-  bool freeA = false, freeB = false;
-  for (int k = 0; k < v.count; ++k) (k < v.firstSide ? freeA : freeB) |= particles.w[v.id[k]] > 0;
-  return freeA && freeB ? 1e-12 : 1e-9;
+  const FreeSides sides = freeSides(v, particles);
+  return sides.first && sides.second ? 1e-12 : 1e-9;
 }
 
 // Earliest time in [0, 1] at which the pair, moving linearly from X0 to X1, may come within
@@ -838,7 +848,7 @@ std::size_t moveImpactZones(PrimitiveContactPool& contacts, ParticlePool& partic
       for (std::size_t i = 0; i < n; ++i) {
         if (contacts.carryPrecedence[i] != 1) continue;
         PrimitiveContactPool::ImpactZone& zone = zoneOfParticle(i);
-        if (zone.stopped || zone.deeper) continue;
+        if (zone.share == 0 || zone.deeper) continue;
         const Real start = std::min(colliderGap(colliders, particles.x[i]), Real(0));
         zone.deeper = colliderGap(colliders, targetOf(zone, i)) < start;
       }
@@ -847,7 +857,6 @@ std::size_t moveImpactZones(PrimitiveContactPool& contacts, ParticlePool& partic
         if (!zone.deeper) continue;
         anyDeeper = true;
         if (halving == kZoneShareHalvings) {
-          zone.stopped = true;
           zone.share = 0;
           zone.rotation = Mat3d::Identity();
           continue;
@@ -1318,9 +1327,7 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
       ++crossings;
       const PairView v =
           viewOf(primitives, candidates.kind[i], candidates.first[i], candidates.second[i]);
-      bool freeA = false, freeB = false;
-      for (int k = 0; k < v.count; ++k)
-        (k < v.firstSide ? freeA : freeB) |= particles.w[v.id[k]] > 0;
+      const auto [freeA, freeB] = freeSides(v, particles);
       // What the pair's free particles are held to: one impact zone, a rigid body that keeps
       // their momentum (moveImpactZones), or the rigid motion of a side with no free particle (a
       // collider, a pinned group), or what a particle of the pair is held to already where that
