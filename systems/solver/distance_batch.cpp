@@ -49,8 +49,8 @@ using distance_lanes::multiplierScale;
       wa = _mm256_permute2f128_ps(wLow, wHigh, 0x20);
       wb = _mm256_permute2f128_ps(wLow, wHigh, 0x31);
     } else {
-      wa = _mm256_i32gather_ps(b.inverseMass, a, 4);
-      wb = _mm256_i32gather_ps(b.inverseMass, c, 4);
+      wa = point_lanes::loadCornerValues(b.inverseMass, b.particles, k, 0);
+      wb = point_lanes::loadCornerValues(b.inverseMass, b.particles, k, 1);
     }
 
     const __m256 dx = _mm256_sub_ps(xa, xb), dy = _mm256_sub_ps(ya, yb), dz = _mm256_sub_ps(za, zb);
@@ -98,21 +98,15 @@ using distance_lanes::multiplierScale;
   const __m256 relaxation = _mm256_set1_ps(b.relaxation), step = _mm256_set1_ps(b.step);
   const __m256 carry = _mm256_set1_ps(b.carry);
   const bool accelerated = b.carry != 0;
-  const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
   Index k = begin;
   for (; k + 8 <= end; k += 8) {
-    const auto* pairs = reinterpret_cast<const __m256i*>(b.particles + k);
-    const __m256i low = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(pairs), split);
-    const __m256i high = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(pairs + 1), split);
-    const __m256i a = _mm256_permute2x128_si256(low, high, 0x20);
-    const __m256i c = _mm256_permute2x128_si256(low, high, 0x31);
     const point_lanes::Lanes3 endA = point_lanes::loadCorner(b.positions, b.particles, k, 0);
     const point_lanes::Lanes3 endB = point_lanes::loadCorner(b.positions, b.particles, k, 1);
     const __m256 dx = _mm256_sub_ps(endA.x, endB.x);
     const __m256 dy = _mm256_sub_ps(endA.y, endB.y);
     const __m256 dz = _mm256_sub_ps(endA.z, endB.z);
-    const __m256 wa = _mm256_i32gather_ps(b.splitInverseMass, a, 4);
-    const __m256 wb = _mm256_i32gather_ps(b.splitInverseMass, c, 4);
+    const __m256 wa = point_lanes::loadCornerValues(b.splitInverseMass, b.particles, k, 0);
+    const __m256 wb = point_lanes::loadCornerValues(b.splitInverseMass, b.particles, k, 1);
 
     const __m256 length = distance_lanes::length(dx, dy, dz);
     const __m256 stretchCompliance = _mm256_loadu_ps(b.compliance + k);
