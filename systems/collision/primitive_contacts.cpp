@@ -736,6 +736,47 @@ Carry kinematicCarry(const PairView& v, bool firstSide, PairKind kind, Index pri
   return carry;
 }
 
+// The same for a pair with free particles on both sides and kinematic particles among them that
+// move this substep (a sheet's own pinned row, animated, in a pair with its free rows). An impact
+// zone that stops at the substep's start cannot resolve such a pair: the pinned particles move on
+// and cross the stopped ones (flag_whip under Gauss–Seidel left such pairs unresolved from frame
+// 17 on, and its sheet then passed through itself). Held to the rigid motion of the pair's moving
+// kinematic particles, the whole pair keeps its crossing-free start where they move rigidly (a
+// pinned group that translates or turns as one). Precedence as a body of the first such
+// particle's object. False, changing nothing, when the pair has no moving kinematic particle or
+// theirs is no common rigid motion (two pinned groups pulling a sheet apart): within 1 µm plus a
+// millionth of their travel, room for the float rounding of a keyframed group.
+constexpr double kRigidTolerance = 1e-6;
+bool movingKinematicCarry(const PairView& v, const ParticlePool& particles, Carry& carry) {
+  Index moving[4];
+  int count = 0;
+  int side = 0;
+  for (int k = 0; k < v.count; ++k) {
+    const Index id = v.id[k];
+    if (particles.w[id] != 0 || particles.p[id] == particles.x[id]) continue;
+    if (count == 0) side = k < v.firstSide ? 0 : 1;
+    moving[count++] = id;
+  }
+  if (count == 0) return false;
+  Index lowest = moving[0];
+  for (int k = 1; k < count; ++k) lowest = std::min(lowest, moving[k]);
+  const std::uint64_t object =
+      std::numeric_limits<std::uint32_t>::max() - (side == 0 ? v.objectA : v.objectB);
+  const RigidMotion motion = kinematicMotion(moving, std::min(count, 3), particles);
+  // Only a motion that takes every one of them where it goes: kinematic particles of two groups
+  // that move apart (a sheet torn by its two pinned halves) have no common motion to keep the
+  // pair's start, and their pair stays in its zone.
+  for (int k = 0; k < count; ++k) {
+    const Vec3d x = particles.x[moving[k]].cast<double>(),
+                p = particles.p[moving[k]].cast<double>();
+    const Vec3d moved = motion.rotation * x + motion.translation;
+    if (!((moved - p).norm() <= kRigidTolerance * (1 + (p - x).norm()))) return false;
+  }
+  carry.precedence = object << 32 | (std::numeric_limits<std::uint32_t>::max() - lowest);
+  carry.motion = motion;
+  return true;
+}
+
 // The impact zone of particle i (union–find with path halving); i must be in one.
 Index zoneOf(std::vector<Index>& parent, Index i) {
   while (parent[i] != i) {
@@ -1340,7 +1381,12 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
       // decide, as the mean-translation carry before it did, flipped particles between stopped and
       // carried until the round limit on a box turning under a draped cloth.)
       Carry held;
-      if (freeA != freeB) {
+      if (freeA == freeB) {
+        // Once the zones stop (below): until then a zone's own motion may clear such a pair,
+        // and carrying torn lips with their pinned row in the plane of a flat sheet, from the
+        // first round, left an intersection (test Tearing.TornClothNeverIntersectsItself).
+        if (round >= kMomentumRounds) movingKinematicCarry(v, particles, held);
+      } else {
         held = kinematicCarry(v, !freeA, candidates.kind[i],
                               freeA ? candidates.second[i] : candidates.first[i], primitives,
                               particles);
