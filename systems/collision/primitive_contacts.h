@@ -84,14 +84,18 @@ void detectPrimitiveContacts(PrimitiveContactPool& contacts, const CandidatePair
 // parallel backends' projection reads; detectPrimitiveContacts builds it after filling the pool.
 void buildContactIncidence(PrimitiveContactPool& contacts, std::size_t particleCount);
 
-// Projects every contact onto particles.p: Gauss–Seidel in pool order; the parallel backends move
-// each particle by the mean of its pressed contacts' corrections (summed in contact order, so the
-// same bits at any thread count), gathered per particle, or scattered from the pressed contacts
-// alone when they are few.
+// Projects every contact onto particles.p: the parallel backends move each particle by the mean
+// of its pressed contacts' corrections, all taken from the same positions (summed in contact
+// order, so the same bits at any thread count), gathered per particle, or scattered from the
+// pressed contacts alone when they are few. Gauss–Seidel does the same for the contacts against a
+// body (a side without free particles: a collider mesh, a pinned group), then projects the
+// contacts between free particles one after another in pool order, whose equal and opposite
+// pushes keep momentum.
 void projectPrimitiveContacts(PrimitiveContactPool& contacts, ParticlePool& particles,
                               SolverKind kind);
 
-// Coulomb friction over the substep's relative tangential motion of each contact that pushed.
+// Coulomb friction over the substep's relative tangential motion of each contact that pushed;
+// split by backend and contact as the projection is.
 void applyPrimitiveFriction(PrimitiveContactPool& contacts, ParticlePool& particles,
                             SolverKind kind);
 
