@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The torture scenes (assets/scenes/torture/, and the cases not clean yet in its unsolved/):
+# The torture scenes (assets/scenes/torture/, its large meshes in large/ and the cases not clean
+# yet in unsolved/):
 # cloth on sharp, moving colliders at the scenes' default substeps, each run through
 # `nucleon run` for all of its frames; one line per scene with what keeps it from being clean
 # (the stats' `failures`), the fail-safe's work and ms/step.
@@ -11,7 +12,8 @@ binary=${1:-build/nucleon}
 threads=${2:-2}
 stats=$(mktemp)
 trap 'rm -f "$stats"' EXIT
-for scene in assets/scenes/torture/*.json assets/scenes/torture/unsolved/*.json; do
+for scene in assets/scenes/torture/*.json assets/scenes/torture/large/*.json \
+  assets/scenes/torture/unsolved/*.json; do
   "$binary" run "$scene" --threads "$threads" --stats "$stats" --quiet >/dev/null
   python3 - "$stats" <<'PY'
 import json, sys

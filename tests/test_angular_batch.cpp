@@ -283,6 +283,10 @@ TEST(AngularBatch, ClothAndRopePoolsMatchTheGenericSweep) {
     World world;
     SolverSettings settings;
     settings.kind = kind;
+    // The second's history, not the sweeps compared, depends on this: with the cloth's contacts
+    // against its pinned corners weighed, the state reached is one from which five sweeps move
+    // particles by up to 10 m, and the rounding grows beyond the bound.
+    settings.supportedInverseMassScale = 1;
     world.setSolver(settings);
     world.setThreads(1);
     world.addCloth(cloth);

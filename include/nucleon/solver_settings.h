@@ -56,14 +56,14 @@ struct SolverSettings {
   // of chains keep `relaxation`: over-relaxed, a swinging rope gains energy.
   Real sheetRelaxation = Real(1.7);
   // Colored-gs and multigrid's colored smoother (their batches): the factor k ∈ [0.001, 1] on
-  // the inverse mass of a particle that a pressed, frictional contact with a collider or a
-  // kinematic body supports, in its two-particle constraints with free particles (those rising
-  // from its support excepted), both ends then rescaled to keep their sum
-  // (systems/solver/supported_particles.h). Below 1 a drape's weight reaches its support in fewer
-  // sweeps (0.1: a 128² sheet on a box's corners stops stretching edges to 3 times their length);
-  // 1, the default: off, since it is not an improvement on every scene. Ignored by the other
-  // sweeps.
-  Real supportedInverseMassScale = 1;
+  // the inverse mass of a particle that a pressed, frictional contact with a kinematic body's
+  // primitives (a collider mesh, a pinned group) supports, in its two-particle constraints with
+  // free particles (those rising from its support excepted), both ends then rescaled to keep
+  // their sum (systems/solver/supported_particles.h). Below 1 a drape's weight reaches its
+  // support in fewer sweeps: at 0.1 a 128² sheet on a box's corners no longer stretches edges to
+  // 3 times their length. 1 turns it off. Ignored by the other sweeps and by the analytic
+  // colliders' contacts.
+  Real supportedInverseMassScale = Real(0.1);
   // Jacobi's Chebyshev acceleration: the estimate ρ ∈ [0, 0.9999] of the plain iteration's
   // spectral radius (0: no acceleration). Higher converges faster on a hanging cloth and
   // extrapolates harder through contacts (ARCHITECTURE.md §3, jacobi). Ignored by the others.

@@ -308,9 +308,9 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
     if (!op.endsRound) continue;
     if (anyContacts) report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
     if (roundsDone == 0 && weighsSupported)
-      report.supportedParticles = weighSupportedParticles(
-          constraints, pools.contacts, pools.colliders, pools.primitiveContacts, particles,
-          settings.supportedInverseMassScale);
+      report.supportedParticles =
+          weighSupportedParticles(constraints, pools.contacts, pools.primitiveContacts, particles,
+                                  settings.supportedInverseMassScale);
     // The repeated cascade, from the positions the fine sweeps left.
     if (++roundsDone < plan.rounds && settings.cascade && settings.cascadeEvery > 0 &&
         roundsDone % settings.cascadeEvery == 0)

@@ -42,14 +42,13 @@ void reweighEnds(ConstraintPools& constraints, const ContactPool& contacts,
 }  // namespace
 
 std::size_t weighSupportedParticles(ConstraintPools& constraints, ContactPool& contacts,
-                                    const ColliderPool& colliders,
                                     const PrimitiveContactPool& primitiveContacts,
                                     const ParticlePool& particles, Real scale) {
   std::vector<Index>& supported = contacts.supportedParticles;
   std::vector<Vec3>& normals = contacts.supportedNormal;
   supported.clear();
   normals.clear();
-  if (scale == 1 || (contacts.size() == 0 && primitiveContacts.size() == 0)) return 0;
+  if (scale == 1 || primitiveContacts.size() == 0) return 0;
   std::vector<Index>& slotOf = contacts.supportedSlot;
   if (slotOf.size() != particles.size()) slotOf.assign(particles.size(), 0);
   // A particle's first pressed contact gives its support's normal.
@@ -59,9 +58,6 @@ std::size_t weighSupportedParticles(ConstraintPools& constraints, ContactPool& c
     normals.push_back(normal);
     slotOf[i] = static_cast<Index>(supported.size());
   };
-  for (std::size_t c = 0; c < contacts.size(); ++c)
-    if (contacts.lambda[c] > 0 && colliders.friction[contacts.collider[c]] > 0)
-      support(contacts.particle[c], contacts.normal[c]);
   for (std::size_t c = 0; c < primitiveContacts.size(); ++c) {
     if (!(primitiveContacts.lambda[c] > 0 && primitiveContacts.friction[c] > 0)) continue;
     const auto& ids = primitiveContacts.particles[c];

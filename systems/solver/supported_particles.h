@@ -1,6 +1,6 @@
-// Particles supported by a collider, made heavier in the colored batches of distance constraints
-// (colored-gs, and multigrid's colored smoother), when SolverSettings::supportedInverseMassScale
-// asks for it.
+// Particles supported by a kinematic body, made heavier in the colored batches of distance
+// constraints (colored-gs, and multigrid's colored smoother); SolverSettings::
+// supportedInverseMassScale sets by how much (default 0.1; 1 turns it off).
 //
 // A cloth draped over a body hangs its skirt from the few particles its contacts hold (a box's
 // corner, a table's edge). A Gauss–Seidel projection of an edge between a supported particle and a
@@ -16,11 +16,17 @@
 // against: a spring between them is as stiff as before, a constraint between two supported
 // particles is untouched, and a constraint met before is met after; what changes is where a
 // correction goes, so such a projection does not conserve momentum between the two, and a
-// frictionless contact supports nothing. Off by default: the forms measured did not improve every
-// torture scene (bench/results/2core-AMD-EPYC/torture.md).
+// frictionless contact supports nothing.
+//
+// Only contacts against a kinematic body's primitives (a collider mesh, a pinned group) support:
+// that is where sharp features hold a skirt. The analytic colliders are left out. On a sphere
+// the multigrid cascade already keeps its coarse particles on the support and carries the weight,
+// and weighing left a 128² drape more stretched (mean strain 1.56% → 1.77%). On a plane or the
+// ground nothing hangs, and weighing only made the particles that had struck it hold back those
+// still sliding (high_drop's worst frame 1.12 → 1.75, wall_slam's 1.38 → 1.65). Measurements:
+// bench/results/2core-AMD-EPYC/torture.md, "Supported particles weighed by default".
 #pragma once
 
-#include "components/collider_pool.h"
 #include "components/constraint_pools.h"
 #include "components/contact_pool.h"
 #include "components/particles.h"
@@ -36,14 +42,13 @@ namespace nucleon {
 // times its length.
 inline constexpr Real kRisingCosine = Real(0.3);
 
-// Finds the particles supported this substep (a collider contact with friction that has pressed, λ
-// > 0, or such a contact against primitives of a kinematic body: particles of inverse mass 0;
-// contacts within reach that have not pressed support nothing) and reweighs the ends of the
-// two-particle constraints on them in the pools' endInverseMass, which the colored batches read;
-// with scale = 1 it does nothing. Returns how many particles are supported. The particle pool keeps
-// every inverse mass as it is: contacts and the cascade read that.
+// Finds the particles supported this substep (a contact with friction that has pressed, λ > 0,
+// against primitives of a kinematic body: particles of inverse mass 0; contacts within reach that
+// have not pressed, and contacts with the analytic colliders, support nothing) and reweighs the
+// ends of the two-particle constraints on them in the pools' endInverseMass, which the colored
+// batches read; with scale = 1 it does nothing. Returns how many particles are supported. The
+// particle pool keeps every inverse mass as it is: contacts and the cascade read that.
 std::size_t weighSupportedParticles(ConstraintPools& constraints, ContactPool& contacts,
-                                    const ColliderPool& colliders,
                                     const PrimitiveContactPool& primitiveContacts,
                                     const ParticlePool& particles, Real scale);
 
