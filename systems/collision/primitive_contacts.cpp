@@ -706,6 +706,13 @@ struct Carry {
   RigidMotion motion;
 };
 
+// A body's precedence: its object in the high 32 bits and its triangle or lowest particle in the
+// low ones, each complemented so that the lower index ranks higher.
+std::uint64_t bodyPrecedence(std::uint32_t object, Index primitive) {
+  constexpr std::uint64_t kMax = std::numeric_limits<std::uint32_t>::max();
+  return (kMax - object) << 32 | (kMax - primitive);
+}
+
 Carry kinematicCarry(const PairView& v, bool firstSide, PairKind kind, Index primitive,
                      const CollisionPrimitives& prims, const ParticlePool& particles) {
   Index triangle = CollisionPrimitives::kNoTriangle;
@@ -717,13 +724,12 @@ Carry kinematicCarry(const PairView& v, bool firstSide, PairKind kind, Index pri
     triangle = prims.pointTriangle[primitive];
   else if (edge && primitive < prims.edgeTriangle.size())
     triangle = prims.edgeTriangle[primitive];
-  const std::uint64_t object =
-      std::numeric_limits<std::uint32_t>::max() - (firstSide ? v.objectA : v.objectB);
+  const std::uint32_t object = firstSide ? v.objectA : v.objectB;
   Carry carry;
   if (triangle != CollisionPrimitives::kNoTriangle) {
     const auto& t = prims.triangleParticles[triangle];
     if (particles.w[t[0]] == 0 && particles.w[t[1]] == 0 && particles.w[t[2]] == 0) {
-      carry.precedence = object << 32 | (std::numeric_limits<std::uint32_t>::max() - triangle);
+      carry.precedence = bodyPrecedence(object, triangle);
       carry.motion = kinematicMotion(t.data(), 3, particles);
       return carry;
     }
@@ -731,7 +737,7 @@ Carry kinematicCarry(const PairView& v, bool firstSide, PairKind kind, Index pri
   const int begin = firstSide ? 0 : v.firstSide, end = firstSide ? v.firstSide : v.count;
   Index lowest = v.id[begin];
   for (int k = begin; k < end; ++k) lowest = std::min(lowest, v.id[k]);
-  carry.precedence = object << 32 | (std::numeric_limits<std::uint32_t>::max() - lowest);
+  carry.precedence = bodyPrecedence(object, lowest);
   carry.motion = kinematicMotion(v.id + begin, end - begin, particles);
   return carry;
 }
@@ -760,8 +766,7 @@ bool movingKinematicCarry(const PairView& v, const ParticlePool& particles, Carr
   if (count == 0) return false;
   Index lowest = moving[0];
   for (int k = 1; k < count; ++k) lowest = std::min(lowest, moving[k]);
-  const std::uint64_t object =
-      std::numeric_limits<std::uint32_t>::max() - (side == 0 ? v.objectA : v.objectB);
+  const std::uint32_t object = side == 0 ? v.objectA : v.objectB;
   const RigidMotion motion = kinematicMotion(moving, std::min(count, 3), particles);
   // Only a motion that takes every one of them where it goes: kinematic particles of two groups
   // that move apart (a sheet torn by its two pinned halves) have no common motion to keep the
@@ -772,7 +777,7 @@ bool movingKinematicCarry(const PairView& v, const ParticlePool& particles, Carr
     const Vec3d moved = motion.rotation * x + motion.translation;
     if (!((moved - p).norm() <= kRigidTolerance * (1 + (p - x).norm()))) return false;
   }
-  carry.precedence = object << 32 | (std::numeric_limits<std::uint32_t>::max() - lowest);
+  carry.precedence = bodyPrecedence(object, lowest);
   carry.motion = motion;
   return true;
 }
