@@ -61,8 +61,8 @@ struct SolverSettings {
   // free particles (those rising from its support excepted), both ends then rescaled to keep
   // their sum (systems/solver/supported_particles.h). Below 1 a drape's weight reaches its
   // support in fewer sweeps: at 0.1 a 128² sheet on a box's corners no longer stretches edges to
-  // 3 times their length. 1 turns it off. Ignored by the other sweeps and by the analytic
-  // colliders' contacts.
+  // 3 times their length. 1 turns it off. Ignored by the other sweeps, by the analytic
+  // colliders' contacts and by the generic projections (the double build, a CPU without AVX2).
   Real supportedInverseMassScale = Real(0.1);
   // Jacobi's Chebyshev acceleration: the estimate ρ ∈ [0, 0.9999] of the plain iteration's
   // spectral radius (0: no acceleration). Higher converges faster on a hanging cloth and
