@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <random>
 
@@ -545,6 +546,10 @@ struct FailsafeCase {
     primitives.triangleRadius.push_back(Real(0.001));
     primitives.triangleObject.push_back(1);
   }
+  // Units in the last place added to every pair's start distance before the fail-safe: the
+  // rounding of a start distance the narrow phase measured (in the solve's moving frame, in
+  // lanes) rather than measureStartDistances.
+  int startDistanceUlps = 0;
   // The pairs of the motion x → p with their bounds, as the solve leaves them, then the
   // fail-safe; `pairCount` is how many candidate pairs there were.
   CrossingReport resolve(std::size_t& pairCount) {
@@ -557,6 +562,9 @@ struct FailsafeCase {
     pairCount = pairs.size();
     PrimitiveContactPool contacts;
     measureStartDistances(contacts, pairs, primitives, particles);
+    for (double& distance : contacts.startDistance)
+      for (int k = 0; k < startDistanceUlps; ++k)
+        distance = std::nextafter(distance, std::numeric_limits<double>::infinity());
     return resolveCrossings(contacts, pairs, primitives, ColliderPool{}, particles);
   }
 };
@@ -680,6 +688,45 @@ TEST(CrossingFailsafe, APairTouchingAtTheStartIsHeldUncrossed) {
   EXPECT_EQ(report.unresolved, 0u);
   EXPECT_GT(report.zones, 0u);
   EXPECT_EQ(above(c.particles.p), startSide);
+}
+
+// A point that the solve left lying exactly in a free triangle's plane, inside it, having moved
+// straight onto it by exactly its start distance: it touches the triangle, which the CCD at zero
+// thickness counts as reached and the intersection measure as intersecting. Its start distance
+// as the narrow phase measured it exceeded that motion by 3 units in the last place, and a test
+// of "the motion cannot use up the start distance" without a margin for that rounding passed the
+// pair over (a vertex of one layer of cloth_stack pressed onto the ground, at one substep, onto
+// the layer lying there: eight intersecting triangle pairs in two frames, none reported
+// unresolved). The triangle and the point of that frame, bit for bit, then the point moved
+// across the triangle in 20 steps: each ends held on the side it started.
+TEST(CrossingFailsafe, APointEndingExactlyOnATriangleIsHeldUncrossed) {
+  const Real height = 0x1.89374cp-9f;  // 3 mm: the triangle lies on the ground
+  const Vec3 corners[3] = {Vec3(-0x1.ab0fdcp-6f, height, 0x1.35c05cp-2f),
+                           Vec3(-0x1.e8ef16p-8f, height, 0x1.204826p-2f),
+                           Vec3(-0x1.bd52fcp-8f, height, 0x1.351f46p-2f)};
+  const Vec3 first(-0x1.c2ff26p-7f, 0x1.e37a86p-9f, 0x1.2a7012p-2f);
+  for (int k = 0; k < 20; ++k) {
+    FailsafeCase c({Vec3(10, 0, 0), Vec3(11, 0, 0), Vec3(10, 0, 1)}, 7);  // a collider far off
+    c.startDistanceUlps = 3;
+    for (Index j = 0; j < 3; ++j) c.addFree(3 + j, corners[j], corners[j]);
+    c.addFreeTriangle({3, 4, 5});
+    const Vec3 start = first + Real(k) * Vec3(Real(-0.0002), 0, Real(0.00025));
+    c.addFree(6, start, Vec3(start.x(), height, start.z()));
+    c.addPoint(6, 1, CollisionPrimitives::kNoTriangle);
+    const auto side = [&](const std::vector<Vec3>& x) {
+      return orient3d(x[3].cast<double>(), x[4].cast<double>(), x[5].cast<double>(),
+                      x[6].cast<double>());
+    };
+    const int startSide = side(c.particles.x);
+    ASSERT_NE(startSide, 0);
+    ASSERT_EQ(side(c.particles.p), 0) << "the prediction lies in the triangle's plane";
+    std::size_t pairs = 0;
+    const CrossingReport report = c.resolve(pairs);
+    ASSERT_EQ(pairs, 1u);
+    EXPECT_EQ(report.unresolved, 0u);
+    EXPECT_GT(report.zones, 0u) << "case " << k;
+    EXPECT_EQ(side(c.particles.p), startSide) << "case " << k;
+  }
 }
 
 // The same when the collider's side of the pair is a point: its turn comes from a triangle of the
