@@ -207,7 +207,7 @@ TEST(UnsolvedTortureScenes, NeverCrashRepairOrGoNonFinite) {
 // frames, the skirt's fall over the corners and the corner's strike on the ground among them,
 // stay clean, within the suite's bound of 1.75 (with the weighing off, frame 19 has an edge at
 // 3.02 times its rest length). Measured worst frame over the whole run (scripts/torture.sh):
-// 1.403 (float). The double build runs 15 frames, the sanitizer build 4.
+// 1.345 (float). The double build runs 15 frames, the sanitizer build 4.
 TEST(LargeTortureScenes, TheFineDrapeOnABoxsCornersIsClean) {
   const test::SceneRun run = test::runScene(
       std::string(NUCLEON_ASSETS_DIR) + "/scenes/torture/large/box_turntable_128.json",

@@ -52,6 +52,11 @@ struct SweepContext {
   // False: every pool takes the generic sweep, none of the optimised paths of the family table
   // (SolverSettings::optimizedPaths).
   bool optimizedPaths = true;
+  // True while supported particles are weighed (supported_particles.h): the in-place projections
+  // of two-particle pools take their ends' inverse masses from the pool's endInverseMass, as the
+  // colored batches always do, so the weighing does not depend on which path a constraint takes
+  // (a batch, a color's remainder, the double build's or a CPU without AVX2's generic sweep).
+  bool weighedEnds = false;
 };
 
 // The kernel tag of a registered family's pool: C and ∇C come from the family's evaluate.
@@ -79,10 +84,12 @@ NUCLEON_KERNEL bool takesPart(const Pool& pool, std::size_t c, const SweepContex
 // Computes constraint c's correction dx (one per particle) from p (the positions being solved);
 // returns Δλ. With `inverseMass` = pool.splitInverseMass (Jacobi), particle i's inverse mass is
 // multiplied by the number of the pool's constraints that share it (mass splitting): see
-// solveJacobi.
+// solveJacobi. With `endInverseMass`, the constraint's own particles' inverse masses in pool order
+// (SweepContext::weighedEnds).
 template <class Kernel, class Pool>
 NUCLEON_KERNEL Real correct(const Pool& pool, std::size_t c, const Vec3* p, const ParticlePool& ps,
-                            Real invH, Vec3* dx, const Real* inverseMass = nullptr) {
+                            Real invH, Vec3* dx, const Real* inverseMass = nullptr,
+                            const Real* endInverseMass = nullptr) {
   constexpr std::size_t kMax = kMaxArity<Kernel>;
   const std::size_t n = pool.arity();  // a constant for the built-in pools
   Points<kMax> x, start, grad;
@@ -90,7 +97,7 @@ NUCLEON_KERNEL Real correct(const Pool& pool, std::size_t c, const Vec3* p, cons
   for (std::size_t k = 0; k < n; ++k) {
     const Index i = pool.particle(c, k);
     x[k] = p[i];
-    weights[k] = inverseMass ? inverseMass[i] : ps.w[i];
+    weights[k] = endInverseMass ? endInverseMass[k] : inverseMass ? inverseMass[i] : ps.w[i];
   }
   const Real invH2 = invH * invH;
   ProjectionTerms terms;
@@ -125,10 +132,14 @@ NUCLEON_KERNEL Real correct(const Pool& pool, std::size_t c, const Vec3* p, cons
 }
 
 template <class Kernel, class Pool>
-NUCLEON_KERNEL void projectInPlace(Pool& pool, std::size_t c, ParticlePool& ps, Real invH) {
+NUCLEON_KERNEL void projectInPlace(Pool& pool, std::size_t c, ParticlePool& ps, Real invH,
+                                   bool weighedEnds = false) {
   Vec3 dx[kMaxArity<Kernel>];
   Vec3* p = ps.p.data();
-  pool.lambda[c] += correct<Kernel>(pool, c, p, ps, invH, dx);
+  const Real* endInverseMass = nullptr;
+  if constexpr (requires { pool.endInverseMass; })
+    if (weighedEnds && !pool.endInverseMass.empty()) endInverseMass = pool.endInverseMass[c].data();
+  pool.lambda[c] += correct<Kernel>(pool, c, p, ps, invH, dx, nullptr, endInverseMass);
   // Pins (w = 0) get dx = 0 and are not written: constraints of one color may share them.
   for (std::size_t k = 0; k < pool.arity(); ++k) {
     const Index i = pool.particle(c, k);
@@ -162,7 +173,7 @@ void solveGaussSeidel(Pool& pool, const SweepContext& context) {
   const Real invH = 1 / context.h;
   for (const Index c : pool.coloring.order)
     if (sweep_detail::takesPart(pool, c, context))
-      sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH);
+      sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH, context.weighedEnds);
 }
 
 // Jacobi with mass splitting (Tonge et al. 2012): each constraint sees particle i with n_i times
@@ -522,7 +533,7 @@ void solveColored(Pool& pool, const SweepContext& context) {
   const Real invH = 1 / context.h;
   auto projectOne = [&](Index c) {
     if (sweep_detail::takesPart(pool, c, context))
-      sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH);
+      sweep_detail::projectInPlace<Kernel>(pool, c, context.particles, invH, context.weighedEnds);
   };
   if constexpr (sweep_detail::kBatched<Kernel, Paths>) {
     // Undamped distance and angular constraints stored in color order: eight at a time.

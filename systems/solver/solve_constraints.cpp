@@ -296,10 +296,10 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
     if (pool.size() > 0 && !pool.family.jacobiAcceleration) sweep.chebyshevRho = 0;
   sweep.sheetRelaxation = settings.sheetRelaxation;
   sweep.optimizedPaths = settings.optimizedPaths;
-  // Only the colored batches read the per-constraint inverse masses that are weighed (the generic
-  // projections read the particle pool's, which the fail-safe's pinned sweeps set to 0; the
-  // Jacobi sweeps read split masses): they weigh supported particles from the second round on,
-  // once the first has shown which contacts press.
+  // The colored sweeps weigh supported particles from the second round on, once the first has
+  // shown which contacts press: their batches read the per-constraint inverse masses always, their
+  // generic projections while `weighedEnds` is set (outside it they read the particle pool's, which
+  // the fail-safe's pinned sweeps set to 0); the Jacobi sweeps read split masses.
   const bool weighsSupported = anyContacts && settings.supportedInverseMassScale != 1 &&
                                kind == SolverKind::ColoredGaussSeidel;
   int roundsDone = 0;
@@ -307,15 +307,18 @@ SolveReport solveConstraints(SolvePools& pools, const SolveSettings& settings,
     runSweepOp(op, plan, constraints, sweep, kind);
     if (!op.endsRound) continue;
     if (anyContacts) report.contactSeconds += timed([&] { projectAllContacts(pools, kind); });
-    if (roundsDone == 0 && weighsSupported)
+    if (roundsDone == 0 && weighsSupported) {
       report.supportedParticles =
           weighSupportedParticles(constraints, pools.contacts, pools.primitiveContacts, particles,
                                   settings.supportedInverseMassScale);
+      sweep.weighedEnds = report.supportedParticles > 0;
+    }
     // The repeated cascade, from the positions the fine sweeps left.
     if (++roundsDone < plan.rounds && settings.cascade && settings.cascadeEvery > 0 &&
         roundsDone % settings.cascadeEvery == 0)
       runCascade(pools, settings, context, report);
   }
+  sweep.weighedEnds = false;
   releaseSupportedParticles(constraints, pools.contacts, particles);
   // Weighed, the sweeps move a supported particle's free neighbours farther than their predicted
   // motion: those that reached a collider get their contacts, as after a cascade.

@@ -1,4 +1,4 @@
-// Particles supported by a kinematic body, made heavier in the colored batches of two-particle
+// Particles supported by a kinematic body, made heavier in the colored sweeps of two-particle
 // constraints (colored-gs, and multigrid's colored smoother); SolverSettings::
 // supportedInverseMassScale sets by how much (default 0.1; 1 turns it off).
 //
@@ -46,9 +46,8 @@ inline constexpr Real kRisingCosine = Real(0.3);
 // against primitives of a kinematic body: particles of inverse mass 0; contacts within reach that
 // have not pressed, and contacts with the analytic colliders, support nothing) and reweighs the
 // ends of the two-particle constraints on them in the pools' endInverseMass, which the colored
-// batches read (not the generic projections: a colour's remainder, the double build and a CPU
-// without AVX2 do not weigh; weighing them too was tried, bench/results/2core-AMD-EPYC/torture.md);
-// with scale = 1 it does nothing. Returns how many particles are supported. The
+// sweeps read (their batches always, their generic projections while SweepContext::weighedEnds is
+// set); with scale = 1 it does nothing. Returns how many particles are supported. The
 // particle pool keeps every inverse mass as it is: contacts and the cascade read that.
 std::size_t weighSupportedParticles(ConstraintPools& constraints, ContactPool& contacts,
                                     const PrimitiveContactPool& primitiveContacts,
