@@ -556,6 +556,7 @@ struct FailsafeCase {
   // rounding of a start distance the narrow phase measured (in the solve's moving frame, in
   // lanes) rather than measureStartDistances.
   int startDistanceUlps = 0;
+  ColliderPool colliders;  // the analytic colliders the impact zones keep out of
   // The pairs of the motion x → p with their bounds, as the solve leaves them, then the
   // fail-safe; `pairCount` is how many candidate pairs there were.
   CrossingReport resolve(std::size_t& pairCount) {
@@ -571,7 +572,7 @@ struct FailsafeCase {
     for (double& distance : contacts.startDistance)
       for (int k = 0; k < startDistanceUlps; ++k)
         distance = std::nextafter(distance, std::numeric_limits<double>::infinity());
-    return resolveCrossings(contacts, pairs, primitives, ColliderPool{}, particles);
+    return resolveCrossings(contacts, pairs, primitives, colliders, particles);
   }
 };
 
@@ -761,6 +762,83 @@ TEST(CrossingFailsafe, APairTheCcdCountsAsReachedAtItsStartIsLeftToItsContacts) 
   EXPECT_EQ(report.crossings, 0u);
   EXPECT_EQ(report.unresolved, 0u);
   for (Index k = 0; k < 4; ++k) EXPECT_EQ(c.particles.p[3 + k], start[k] + slide) << k;
+}
+
+// Two cloth edges 6.8 × 10⁻⁷ m apart (cloth_drop_sphere at 2 substeps × 10 sweeps, the four
+// positions bit for bit), predicted to turn through about 18° with their impact zone and, on top
+// of it, to pass through each other. The zone takes them along its rigid motion, which cannot
+// cross them; asked about that motion, the CCD stepped the turning pair forward a sliver at a
+// time and reported a hit at its iteration cap, in every round, until the zones stopped at half
+// the round limit (the particles held where the substep began). Now a pair that moves with one
+// zone is not asked: one round finds the crossing, the next none, and the zone keeps its motion.
+TEST(CrossingFailsafe, APairTurningWithItsZoneIsNotCrossingAgain) {
+  FailsafeCase c({Vec3(10, 0, 0), Vec3(11, 0, 0), Vec3(10, 0, 1)}, 7);  // a collider far off
+  const Vec3 start[4] = {Vec3(0x1.901166p-3f, 0x1.cd74bap-6f, 0x1.7f8d64p-4f),
+                         Vec3(0x1.7f695ep-3f, 0x1.6ca472p-6f, 0x1.2bf162p-4f),
+                         Vec3(0x1.98375cp-3f, 0x1.1fada4p-5f, 0x1.54989cp-4f),
+                         Vec3(0x1.7a919ep-3f, 0x1.13614ap-6f, 0x1.60b26cp-4f)};
+  const Vec3 turned[4] = {Vec3(0x1.a2dae8p-3f, 0x1.9f047ap-6f, 0x1.709f04p-4f),
+                          Vec3(0x1.89eb5ep-3f, 0x1.721f7p-6f, 0x1.22b126p-4f),
+                          Vec3(0x1.abaaf6p-3f, 0x1.ff980ep-6f, 0x1.439656p-4f),
+                          Vec3(0x1.85c838p-3f, 0x1.2088b6p-6f, 0x1.587408p-4f)};
+  // The edges' common normal at the start, and a push along it through the other edge: equal and
+  // opposite, so the pair's momentum is the turn's.
+  const Vec3 normal = (start[1] - start[0]).cross(start[3] - start[2]).normalized();
+  const Real side = normal.dot(start[0] - start[2]) > 0 ? Real(1) : Real(-1);
+  const Vec3 push = Real(0.002) * side * normal;
+  for (Index k = 0; k < 4; ++k) c.addFree(3 + k, start[k], turned[k] + (k < 2 ? -push : push));
+  c.addFreeEdge({3, 4});
+  c.addFreeEdge({5, 6});
+  std::size_t pairs = 0;
+  const CrossingReport report = c.resolve(pairs);
+  ASSERT_EQ(pairs, 1u);
+  EXPECT_EQ(report.crossings, 1u);
+  EXPECT_EQ(report.rounds, 2);
+  EXPECT_EQ(report.zones, 1u);
+  EXPECT_EQ(report.stoppedZones, 0u);
+  EXPECT_EQ(report.unresolved, 0u);
+  // Held to a rigid motion of the start: the edges keep their lengths and their distance, and
+  // they moved (a stopped zone would have left them where they began).
+  EXPECT_NEAR((c.particles.p[4] - c.particles.p[3]).norm(), (start[1] - start[0]).norm(), 1e-6f);
+  EXPECT_NEAR((c.particles.p[6] - c.particles.p[5]).norm(), (start[3] - start[2]).norm(), 1e-6f);
+  for (Index k = 0; k < 4; ++k)
+    EXPECT_GT((c.particles.p[3 + k] - start[k]).norm(), Real(0.005)) << k;
+}
+
+// A crossing pair lying on the ground, predicted to slide 2 cm along it while sinking into the
+// ground's contact layer: a cloth triangle at the layer's top and a vertex 2 mm above it that
+// passes through it. The zone's rigid motion would take the triangle deeper into the layer;
+// halved six times it still would, and the zone stopped where the substep began, its particles
+// held still while their cloth slid on. Now it keeps what the plane allows: the slide, without
+// the sinking.
+TEST(CrossingFailsafe, AZoneOnTheGroundSlidesAlongItInsteadOfStopping) {
+  FailsafeCase c({Vec3(10, 0, 0), Vec3(11, 0, 0), Vec3(10, 0, 1)}, 7);  // a collider far off
+  const Real layer = Real(0.003);
+  c.colliders.append(ColliderShape::Plane, Vec3::Zero(), Vec3::UnitY(), 0, layer, Real(0.5),
+                     Real(0.5));
+  const Vec3 slide(Real(0.02), 0, 0);
+  const Vec3 triangle[3] = {Vec3(0, layer, 0), Vec3(Real(0.02), layer, 0),
+                            Vec3(0, layer, Real(0.02))};
+  for (Index k = 0; k < 3; ++k)
+    c.addFree(3 + k, triangle[k], triangle[k] + slide - Vec3(0, Real(0.001), 0));
+  const Vec3 vertex(Real(0.005), layer + Real(0.002), Real(0.005));
+  c.addFree(6, vertex, vertex + slide - Vec3(0, Real(0.006), 0));
+  c.addFreeTriangle({3, 4, 5});
+  c.addPoint(6, 1, CollisionPrimitives::kNoTriangle);
+  std::size_t pairs = 0;
+  const CrossingReport report = c.resolve(pairs);
+  ASSERT_GE(pairs, 1u);
+  EXPECT_GE(report.crossings, 1u);
+  EXPECT_EQ(report.zones, 1u);
+  EXPECT_EQ(report.stoppedZones, 0u);
+  EXPECT_EQ(report.unresolved, 0u);
+  for (Index k = 0; k < 4; ++k) {
+    const Vec3 from = k < 3 ? triangle[k] : vertex;
+    // The slide kept (the zone's mean motion along the ground), the height kept to rounding.
+    EXPECT_NEAR(c.particles.p[3 + k].x() - from.x(), slide.x(), 1e-6f) << k;
+    EXPECT_NEAR(c.particles.p[3 + k].y(), from.y(), 1e-7f) << k;
+    EXPECT_NEAR(c.particles.p[3 + k].z(), from.z(), 1e-6f) << k;
+  }
 }
 
 // The same when the collider's side of the pair is a point: its turn comes from a triangle of the
