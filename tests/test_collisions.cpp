@@ -547,6 +547,17 @@ struct FailsafeCase {
     primitives.edgeObject.push_back(1);
     primitives.edgeTriangle.push_back(CollisionPrimitives::kNoTriangle);
   }
+  // Two free edges, particles 3–4 and 5–6, from `start` to `predicted`.
+  void addFreeEdgePair(const Vec3 (&start)[4], const Vec3 (&predicted)[4]) {
+    for (Index k = 0; k < 4; ++k) addFree(3 + k, start[k], predicted[k]);
+    addFreeEdge({3, 4});
+    addFreeEdge({5, 6});
+  }
+  // The side of point 6 against the plane of triangle 3–5 at positions x (orient3d's sign).
+  static int pointSide(const std::vector<Vec3>& x) {
+    return orient3d(x[3].cast<double>(), x[4].cast<double>(), x[5].cast<double>(),
+                    x[6].cast<double>());
+  }
   void addFreeTriangle(const std::array<Index, 3>& t) {
     primitives.triangleParticles.push_back(t);
     primitives.triangleRadius.push_back(Real(0.001));
@@ -683,18 +694,14 @@ TEST(CrossingFailsafe, APairTouchingAtTheStartIsHeldUncrossed) {
   const Vec3 start(0, Real(5e-10), Real(-0.1) / 3);
   c.addFree(6, start, start - Vec3(0, Real(0.001), 0));
   c.addPoint(6, 1, CollisionPrimitives::kNoTriangle);
-  const auto above = [&](const std::vector<Vec3>& x) {
-    return orient3d(x[3].cast<double>(), x[4].cast<double>(), x[5].cast<double>(),
-                    x[6].cast<double>());
-  };
-  const int startSide = above(c.particles.x);
+  const int startSide = FailsafeCase::pointSide(c.particles.x);
   ASSERT_NE(startSide, 0);
   std::size_t pairs = 0;
   const CrossingReport report = c.resolve(pairs);
   ASSERT_EQ(pairs, 1u);
   EXPECT_EQ(report.unresolved, 0u);
   EXPECT_GT(report.zones, 0u);
-  EXPECT_EQ(above(c.particles.p), startSide);
+  EXPECT_EQ(FailsafeCase::pointSide(c.particles.p), startSide);
 }
 
 // A point that the solve left lying exactly in a free triangle's plane, inside it, having moved
@@ -720,19 +727,16 @@ TEST(CrossingFailsafe, APointEndingExactlyOnATriangleIsHeldUncrossed) {
     const Vec3 start = first + Real(k) * Vec3(Real(-0.0002), 0, Real(0.00025));
     c.addFree(6, start, Vec3(start.x(), height, start.z()));
     c.addPoint(6, 1, CollisionPrimitives::kNoTriangle);
-    const auto side = [&](const std::vector<Vec3>& x) {
-      return orient3d(x[3].cast<double>(), x[4].cast<double>(), x[5].cast<double>(),
-                      x[6].cast<double>());
-    };
-    const int startSide = side(c.particles.x);
+    const int startSide = FailsafeCase::pointSide(c.particles.x);
     ASSERT_NE(startSide, 0);
-    ASSERT_EQ(side(c.particles.p), 0) << "the prediction lies in the triangle's plane";
+    ASSERT_EQ(FailsafeCase::pointSide(c.particles.p), 0)
+        << "the prediction lies in the triangle's plane";
     std::size_t pairs = 0;
     const CrossingReport report = c.resolve(pairs);
     ASSERT_EQ(pairs, 1u);
     EXPECT_EQ(report.unresolved, 0u);
     EXPECT_GT(report.zones, 0u) << "case " << k;
-    EXPECT_EQ(side(c.particles.p), startSide) << "case " << k;
+    EXPECT_EQ(FailsafeCase::pointSide(c.particles.p), startSide) << "case " << k;
   }
 }
 
@@ -753,9 +757,9 @@ TEST(CrossingFailsafe, APairTheCcdCountsAsReachedAtItsStartIsLeftToItsContacts) 
                          Vec3(0x1.38f9c4p-2f, 0x1.89374cp-9f, 0x1.78679p-2f),
                          Vec3(0x1.46394p-2f, 0x1.89374cp-9f, 0x1.889478p-2f)};
   const Vec3 slide(Real(0.0078125), 0, 0);  // a power of two: every coordinate moves exactly
-  for (Index k = 0; k < 4; ++k) c.addFree(3 + k, start[k], start[k] + slide);
-  c.addFreeEdge({3, 4});
-  c.addFreeEdge({5, 6});
+  Vec3 slid[4];
+  for (Index k = 0; k < 4; ++k) slid[k] = start[k] + slide;
+  c.addFreeEdgePair(start, slid);
   std::size_t pairs = 0;
   const CrossingReport report = c.resolve(pairs);
   ASSERT_EQ(pairs, 1u);
@@ -786,9 +790,9 @@ TEST(CrossingFailsafe, APairTurningWithItsZoneIsNotCrossingAgain) {
   const Vec3 normal = (start[1] - start[0]).cross(start[3] - start[2]).normalized();
   const Real side = normal.dot(start[0] - start[2]) > 0 ? Real(1) : Real(-1);
   const Vec3 push = Real(0.002) * side * normal;
-  for (Index k = 0; k < 4; ++k) c.addFree(3 + k, start[k], turned[k] + (k < 2 ? -push : push));
-  c.addFreeEdge({3, 4});
-  c.addFreeEdge({5, 6});
+  Vec3 predicted[4];
+  for (Index k = 0; k < 4; ++k) predicted[k] = turned[k] + (k < 2 ? -push : push);
+  c.addFreeEdgePair(start, predicted);
   std::size_t pairs = 0;
   const CrossingReport report = c.resolve(pairs);
   ASSERT_EQ(pairs, 1u);
