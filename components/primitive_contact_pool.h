@@ -133,7 +133,8 @@ struct PrimitiveContactPool {
     // enter a collider; 0: held where the substep began (momentum lost, counted).
     double share = 1;
     bool deeper = false;  // scratch: the share takes a particle into a collider
-    // Scratch: the one plane collider its motion takes a particle into (−1: none, −2: several).
+    // The one plane collider its motion took a particle into, and along which it slid (−1: none,
+    // −2: several).
     int plane = -1;
   };
   std::vector<Index> zoneParent;

@@ -996,7 +996,8 @@ std::size_t moveImpactZones(PrimitiveContactPool& contacts, ParticlePool& partic
     }
   report.stoppedZones = 0;
   for (PrimitiveContactPool::ImpactZone& zone : zones)
-    report.stoppedZones += !keepMomentum || zone.share < 1;
+    // A zone slid along a plane gave it the part of its momentum that pointed into it.
+    report.stoppedZones += !keepMomentum || zone.share < 1 || zone.plane >= 0;
   for (std::size_t i = 0; i < n; ++i) {
     if (contacts.carryPrecedence[i] != 1) continue;
     const PrimitiveContactPool::ImpactZone& zone = zoneOfParticle(i);
@@ -1497,15 +1498,16 @@ CrossingReport resolveCrossings(PrimitiveContactPool& contacts, const CandidateP
             if (!std::isfinite(motion) || contacts.startDistance[i] - motion > kBoundTolerance ||
                 !(contacts.startDistance[i] > touchingDistance(v, particles)))
               continue;
-            // So does a pair whose start the CCD itself counts as reached, standing still: one
+            // A pair moving with one zone cannot cross (movesWithOneZone).
+            if (round > 0 &&
+                movesWithOneZone(v, contacts, particles, X1, contacts.startDistance[i]))
+              continue;
+            // Nor has a pair whose start the CCD itself counts as reached, standing still: one
             // within the CCD's tolerance but farther than the touching distance (two edges of
             // layers lying flat together across each other, 1.5 × 10⁻¹⁰ m apart). Held to its
             // start, it is reached again in every round and every substep: its zone stopped for
             // good and its particles held still while the cloth around them moved on
             // (torture/high_drop at one substep). The second CCD runs only for a hit.
-            if (round > 0 &&
-                movesWithOneZone(v, contacts, particles, X1, contacts.startDistance[i]))
-              continue;
             contacts.suspect[i] =
                 pairCcd(v.kind, X0, X1, 0.0).hit && !pairCcd(v.kind, X0, X0, 0.0).hit ? 1 : 0;
           }
